@@ -1,0 +1,1 @@
+"""granflow post-processing: dump readers, kernels and fields, scene analyses, fits, plots."""

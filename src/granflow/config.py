@@ -1,0 +1,243 @@
+"""Load, override and validate granflow configuration.
+
+Two kinds of file are validated against JSON schemas in ``config/schema``:
+the campaign (``config/config.yaml``) and the scene files
+(``config/scenes/<scene>.yaml``). Every refusal is a :class:`ConfigError` whose
+message names the dotted key, the offending value and the allowed range, so a
+user can fix the file without reading the schema.
+"""
+from __future__ import annotations
+
+import copy
+import math
+import re
+from pathlib import Path
+from typing import Any, Iterable
+
+import jsonschema
+import yaml
+
+#: Root of the project (``src/granflow/config.py`` -> project root).
+PROJECT_ROOT = Path(__file__).resolve().parents[2]
+SCHEMA_DIR = PROJECT_ROOT / "config" / "schema"
+SCENES = ("channel",)
+RUNGS = ("smoke", "demo", "study", "paper")
+
+
+class _Loader(yaml.SafeLoader):
+    """Safe loader that reads ``1e5`` and ``1.0e5`` as floats (YAML 1.2), not strings."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+    |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+    |[-+]?\.(?:inf|Inf|INF)
+    |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."),
+)
+
+
+def yaml_load(text: str):
+    """Parse YAML text with :class:`_Loader`."""
+    return yaml.load(text, Loader=_Loader)
+
+
+class ConfigError(ValueError):
+    """Invalid configuration; the message names key, value and allowed range."""
+
+
+def load_yaml(path: str | Path) -> dict:
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"config file not found: {path}")
+    try:
+        data = yaml_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: top level must be a mapping, got {type(data).__name__}")
+    return data
+
+
+def load_schema(name: str) -> dict:
+    """Schema ``config/schema/<name>.schema.yaml`` as a dict."""
+    return load_yaml(SCHEMA_DIR / f"{name}.schema.yaml")
+
+
+# --------------------------------------------------------------------- overrides
+def parse_override(text: str) -> tuple[list[str], Any]:
+    """Split ``a.b.c=VALUE`` into a key path and a YAML-parsed value.
+
+    ``VALUE`` is read as YAML, so ``0.6`` is a number, ``[20, 30]`` a list and
+    ``true`` a boolean; anything else stays a string and meets the schema's type.
+    """
+    if "=" not in text:
+        raise ConfigError(f"--set {text!r}: expected KEY=VALUE with a dotted KEY, e.g. case.phi_mean=0.61")
+    key, raw = text.split("=", 1)
+    parts = [p for p in key.strip().split(".") if p]
+    if not parts:
+        raise ConfigError(f"--set {text!r}: empty key")
+    try:
+        value = yaml_load(raw)
+    except yaml.YAMLError:
+        value = raw
+    return parts, value
+
+
+def apply_overrides(data: dict, overrides: Iterable[str]) -> dict:
+    """Return a copy of ``data`` with each ``KEY=VALUE`` override applied.
+
+    An override may create a new key; the schema then refuses it as unknown,
+    exactly as it would in the file.
+    """
+    out = copy.deepcopy(data)
+    for text in overrides or ():
+        parts, value = parse_override(text)
+        node = out
+        for i, p in enumerate(parts[:-1]):
+            if not isinstance(node, dict):
+                raise ConfigError(f"--set {text}: {'.'.join(parts[:i])} is not a mapping")
+            node = node.setdefault(p, {})
+        if not isinstance(node, dict):
+            raise ConfigError(f"--set {text}: {'.'.join(parts[:-1])} is not a mapping")
+        node[parts[-1]] = value
+    return out
+
+
+# -------------------------------------------------------------------- validation
+def _dotted(path: Iterable) -> str:
+    out = ""
+    for p in path:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out or "(top level)"
+
+
+def _allowed(schema: dict) -> str:
+    """Human description of what ``schema`` allows."""
+    bits = []
+    if "enum" in schema:
+        bits.append("one of " + ", ".join(repr(v) for v in schema["enum"]))
+    if "const" in schema:
+        bits.append(f"exactly {schema['const']!r}")
+    lo = schema.get("minimum")
+    xlo = schema.get("exclusiveMinimum")
+    hi = schema.get("maximum")
+    xhi = schema.get("exclusiveMaximum")
+    if any(v is not None for v in (lo, xlo, hi, xhi)):
+        left = f"{lo} <= " if lo is not None else (f"{xlo} < " if xlo is not None else "")
+        right = f" <= {hi}" if hi is not None else (f" < {xhi}" if xhi is not None else "")
+        bits.append(f"{left}value{right}")
+    if "type" in schema and not bits:
+        t = schema["type"]
+        bits.append("type " + (" or ".join(t) if isinstance(t, list) else t))
+    if "pattern" in schema:
+        bits.append(f"matching {schema['pattern']}")
+    return "; ".join(bits) or "see the schema"
+
+
+def _format_error(err: jsonschema.ValidationError, source: str) -> str:
+    key = _dotted(err.absolute_path)
+    desc = err.schema.get("description") if isinstance(err.schema, dict) else None
+    tail = f" ({desc})" if desc else ""
+    if err.validator == "additionalProperties":
+        allowed = sorted(err.schema.get("properties", {}))
+        extra = sorted(set(err.instance) - set(allowed))
+        where = f"{key}." if err.absolute_path else ""
+        return (f"{source}: unknown key {where}{extra[0]!s} (value {err.instance[extra[0]]!r}); "
+                f"allowed keys here: {', '.join(allowed)}")
+    if err.validator == "required":
+        return f"{source}: {key}: {err.message}"
+    if err.validator in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum", "enum", "const"):
+        return f"{source}: {key} = {err.instance!r} is not allowed: allowed {_allowed(err.schema)}{tail}"
+    if err.validator == "type":
+        return f"{source}: {key} = {err.instance!r} has the wrong type: allowed {_allowed(err.schema)}{tail}"
+    return f"{source}: {key} = {err.instance!r}: {err.message}{tail}"
+
+
+def validate(data: dict, schema_name: str, source: str = "config") -> None:
+    """Validate ``data`` against a named schema; raise :class:`ConfigError` listing every problem."""
+    schema = load_schema(schema_name)
+    validator = jsonschema.Draft202012Validator(schema)
+    errors = sorted(validator.iter_errors(data), key=lambda e: (list(map(str, e.absolute_path)), e.validator))
+    if errors:
+        raise ConfigError("\n".join(_format_error(e, source) for e in errors))
+
+
+def _check(cond: bool, msg: str) -> None:
+    if not cond:
+        raise ConfigError(msg)
+
+
+def validate_scene(scene: dict, source: str = "scene") -> dict:
+    """Schema plus cross-field checks of a scene file; returns it unchanged."""
+    name = scene.get("scene")
+    if name not in SCENES:
+        raise ConfigError(f"{source}: scene = {name!r} is not allowed: allowed one of {', '.join(map(repr, SCENES))}")
+    validate(scene, name, source)
+    p = scene["particles"]
+    _check(len(p["diameters"]) == len(p["number_fractions"]),
+           f"{source}: particles.number_fractions has {len(p['number_fractions'])} entries, "
+           f"particles.diameters has {len(p['diameters'])}: allowed only equal lengths")
+    total = sum(p["number_fractions"])
+    _check(math.isclose(total, 1.0, abs_tol=1e-6),
+           f"{source}: particles.number_fractions sum to {total:g}: allowed sum = 1")
+    for name, r in scene["rungs"].items():
+        W = r["W"]
+        _check(2 * r["wall_bin_width"] + r["bin_width"] <= W,
+               f"{source}: rungs.{name}.W = {W} leaves no interior bin: allowed W >= "
+               f"2*wall_bin_width + bin_width = {2 * r['wall_bin_width'] + r['bin_width']}")
+        _check(r["t_segment"] <= r["t_flow_max"],
+               f"{source}: rungs.{name}.t_segment = {r['t_segment']}: allowed <= t_flow_max = {r['t_flow_max']}")
+        _check(r["dump_interval"] <= r["t_average"],
+               f"{source}: rungs.{name}.dump_interval = {r['dump_interval']}: allowed <= t_average = {r['t_average']}")
+        _check(r["thermo_interval"] <= r["t_segment"],
+               f"{source}: rungs.{name}.thermo_interval = {r['thermo_interval']}: allowed <= t_segment = {r['t_segment']}")
+    return scene
+
+
+def load_scene(path: str | Path, overrides: Iterable[str] = ()) -> dict:
+    """Load, override and validate a scene file."""
+    data = apply_overrides(load_yaml(path), overrides)
+    return validate_scene(data, source=str(path))
+
+
+def load_campaign(path: str | Path, overrides: Iterable[str] = (), root: Path | None = None) -> dict:
+    """Load, override and validate the campaign file and every enabled scene file.
+
+    Returns the campaign dict with each enabled scene's validated file content
+    under ``scenes.<name>.scene``.
+    """
+    data = apply_overrides(load_yaml(path), overrides)
+    validate(data, "config", source=str(path))
+    root = Path(root) if root else Path(path).resolve().parent.parent
+    for name, sc in data.get("scenes", {}).items():
+        if not sc.get("enabled", True):
+            continue
+        scene_path = Path(sc["scene_file"])
+        if not scene_path.is_absolute():
+            scene_path = root / scene_path
+        scene = load_scene(scene_path)
+        rung = data["rung"]
+        _check(rung in scene["rungs"],
+               f"{path}: rung = {rung!r} is not defined in {scene_path}: allowed {', '.join(scene['rungs'])}")
+        # every sweep point must pass the scene's own case bounds
+        for W in sc["sweep"].get("W", [None]):
+            for phi in sc["sweep"].get("phi_mean", [scene["case"]["phi_mean"]]):
+                case = dict(scene["case"], phi_mean=phi, W=W)
+                validate(dict(scene, case=case), scene["scene"], source=f"{path} (sweep point W={W}, phi_mean={phi})")
+                rW = W if W is not None else scene["rungs"][rung]["W"]
+                r = scene["rungs"][rung]
+                _check(2 * r["wall_bin_width"] + r["bin_width"] <= rW,
+                       f"{path}: scenes.{name}.sweep.W = {rW} leaves no interior bin: allowed W >= "
+                       f"{2 * r['wall_bin_width'] + r['bin_width']}")
+        sc["scene"] = scene
+    return data
+
+
+def check_rung(scene: dict, rung: str, source: str = "--rung") -> dict:
+    """Return the rung preset, or refuse an unknown rung name."""
+    if rung not in scene["rungs"]:
+        raise ConfigError(f"{source} = {rung!r} does not exist: allowed {', '.join(scene['rungs'])}")
+    return scene["rungs"][rung]

@@ -1,0 +1,187 @@
+"""Render LAMMPS decks from Jinja2 templates in ``lammps_inputs/``.
+
+Templates hold structure (which walls, fixes, computes and dump columns);
+every number enters as a ``variable ... equal`` line computed here once from the
+validated physical parameters, with its meaning as a comment. Only numbers and
+names from fixed lists reach a deck, never free text from the config.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import jinja2
+
+from .config import PROJECT_ROOT, check_rung
+from .contact import ContactModel, build_contact_model, sphere_mass
+from .preflight import PreflightError, check_time_step
+
+TEMPLATE_DIR = PROJECT_ROOT / "lammps_inputs"
+STAGES = ("init", "flow", "average")
+SPIN_COLUMNS = ["omegax", "omegay", "omegaz"]
+STRESS_COLUMNS = [f"c_stress[{k}]" for k in range(1, 7)]
+
+
+@dataclass(frozen=True)
+class Param:
+    """A number written into the deck as ``variable name equal value # comment``."""
+
+    name: str
+    value: float | int
+    comment: str
+
+
+def _number(value) -> float | int:
+    """Refuse anything that is not a finite number (decks take typed values only)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise TypeError(f"deck parameter must be a finite number, got {value!r}")
+    return value
+
+
+def environment() -> jinja2.Environment:
+    return jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATE_DIR)),
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+    )
+
+
+def case_values(scene: dict, rung_name: str, case: dict | None = None) -> dict:
+    """Merge the scene's default case, the rung and a sweep point into one case dict."""
+    rung = check_rung(scene, rung_name)
+    merged = dict(scene["case"], **(case or {}))
+    if merged.get("W") is None:
+        merged["W"] = rung["W"]
+    return merged
+
+
+def time_step(rung: dict, model: ContactModel) -> float:
+    """The rung's explicit ``dt`` or ``dt_fraction`` x the shortest contact time."""
+    if rung.get("dt") is not None:
+        return float(rung["dt"])
+    return rung["dt_fraction"] * model.stiffest.t_c
+
+
+def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tuple[list[Param], dict]:
+    """All numbers of a channel deck, and the template context besides them.
+
+    Raises
+    ------
+    PreflightError
+        If the time step does not resolve the stiffest contact.
+    """
+    rung = check_rung(scene, rung_name)
+    case = case_values(scene, rung_name, case)
+    model = build_contact_model(scene, rung)
+    dt = time_step(rung, model)
+    check_time_step(dt, model, scene["contact"]["dt_max_fraction"])
+
+    p = scene["particles"]
+    eff = scene["effects"]
+    diameters = p["diameters"] if eff["polydisperse"] else [1.0]
+    fractions = p["number_fractions"] if eff["polydisperse"] else [1.0]
+    v_mean = sum(f * math.pi * d**3 / 6 for d, f in zip(diameters, fractions))
+    W, B, H = float(case["W"]), float(rung["B"]), float(rung["H"])
+    n_particles = int(round(case["phi_mean"] * W * B * H / v_mean))
+    fill = scene["protocol"]["fill_packing"]
+    fill_height = n_particles * v_mean / (fill * (W - 1.2) * B) + 1.2
+
+    def steps(t: float) -> int:
+        return max(1, int(round(t / dt)))
+
+    params = [
+        Param("W", W, "channel width (walls at x = 0 and x = W), d_p"),
+        Param("B", B, "spanwise periodic depth (z), d_p"),
+        Param("H_nominal", H, "nominal periodic height; the deck sets H = V_particles/(phi_mean W B)"),
+        Param("phi_mean", _number(case["phi_mean"]), "mean volume fraction phi-bar"),
+        Param("n_particles", n_particles, "particles inserted: phi_mean W B H_nominal / <pi d^3/6>"),
+        Param("fill_height", round(fill_height, 6), "height of the raining gas region, d_p"),
+        Param("d_max", max(diameters), "largest diameter: minimum insertion distance, d_p"),
+        Param("density", p["density"], "material density, m_p/d_p^3 (a d_p sphere has mass 1)"),
+        Param("seed", int(case["seed"]), "random seed of insertion and species assignment"),
+        Param("k_n", model.k_n, "normal stiffness, m_p g/d_p"),
+        Param("k_t", round(model.k_t, 9), "tangential stiffness k_t = kt_over_kn k_n"),
+        Param("xi_n", round(model.xi_n, 9), f"normal damping rate (x m_eff): e_n = {scene['contact']['e_n']} for a d_p pair"),
+        Param("xi_t", round(model.xi_t, 9), "tangential damping rate xi_t = xi_t_over_xi_n xi_n"),
+        Param("friction", model.friction, "particle-particle sliding friction mu_p"),
+        Param("wall_friction", model.wall_friction, "particle-wall sliding friction"),
+        Param("fill_friction", scene["protocol"]["fill_friction"], "friction while the bed settles"),
+        Param("t_c_min", round(model.stiffest.t_c, 9), f"shortest contact time ({model.stiffest.name}), sqrt(d_p/g)"),
+        Param("dt", round(dt, 10), f"time step = {dt / model.stiffest.t_c:.4g} t_c_min"),
+        Param("skin", 0.3, "neighbour skin, d_p (bin size = largest diameter + skin)"),
+        Param("n_settle", steps(scene["protocol"]["settle_time"]), "steps to settle the rained bed"),
+        Param("lid_speed", 0.2, "speed of the compressing lid, d_p/sqrt(d_p/g)"),
+        Param("n_relax", steps(5.0), "steps to relax the bed under the lid after it stops"),
+        Param("n_segment", steps(rung["t_segment"]), "steps per flow/averaging segment"),
+        Param("n_thermo", steps(rung["thermo_interval"]), "steps between thermo samples"),
+        Param("n_dump", steps(rung["dump_interval"]), "steps between dumped frames"),
+    ]
+    for prm in params:
+        _number(prm.value)
+
+    n_types = len(diameters)
+    tail = [sum(fractions[i:]) for i in range(n_types)]
+    species_split = [
+        {"from_type": i, "to_type": i + 1, "ratio": round(tail[i] / tail[i - 1], 12)}
+        for i in range(1, n_types)
+    ]
+    columns = list(eff["dump_columns"])
+    if eff["spin_output"]:
+        columns += SPIN_COLUMNS
+    if eff["per_atom_stress"]:
+        columns += STRESS_COLUMNS
+    context = {
+        "scene": "channel",
+        "rung": rung_name,
+        "units_note": "lj: length d_p, mass m_p, time sqrt(d_p/g)",
+        "effects": eff,
+        "ntypes": n_types,
+        "species": [{"type": i + 1, "diameter": d} for i, d in enumerate(diameters)],
+        "species_split": species_split,
+        "dump_columns": columns,
+    }
+    record = {
+        "scene": "channel",
+        "rung": rung_name,
+        "case": case,
+        "rung_knobs": rung,
+        "parameters": {prm.name: prm.value for prm in params},
+        "contacts": [
+            {"name": c.name, "m_eff": c.m_eff, "t_c": c.t_c, "e_n": c.e_n} for c in model.contacts
+        ],
+        "n_flow_segments": max(1, math.ceil(rung["t_flow_max"] / rung["t_segment"] - 1e-9)),
+        "n_average_segments": max(1, math.ceil(rung["t_average"] / rung["t_segment"] - 1e-9)),
+        "dt": dt,
+        "t_segment": steps(rung["t_segment"]) * dt,
+        "dump_columns": columns,
+        "density": p["density"],
+        "species": [{"type": i + 1, "diameter": d, "mass": sphere_mass(d, p["density"])} for i, d in enumerate(diameters)],
+        "effects": eff,
+        "protocol": scene["protocol"],
+    }
+    return params, {**context, "record": record}
+
+
+def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | None = None) -> dict:
+    """Write ``init.lmp``, ``flow.lmp``, ``average.lmp`` and ``params.json`` into ``outdir``.
+
+    Returns the parameter record (also written to ``params.json``).
+    """
+    params, context = channel_parameters(scene, rung_name, case)
+    record = context.pop("record")
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    env = environment()
+    template = env.get_template(f"{context['scene']}.lmp.j2")
+    for stage in STAGES:
+        text = template.render(params=params, stage=stage, **context)
+        (outdir / f"{stage}.lmp").write_text(text)
+    (outdir / "params.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n")
+    return record
+
+
+__all__ = ["render_case", "channel_parameters", "PreflightError", "STAGES"]

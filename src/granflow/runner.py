@@ -1,0 +1,221 @@
+"""Run a rendered case with LAMMPS under MPI, in resumable segments.
+
+A case directory holds the decks written by :func:`granflow.deck.render_case`
+(``init.lmp``, ``flow.lmp``, ``average.lmp``, ``params.json``). The runner
+
+1. runs ``init`` (rain, settle, pack, open the periodic direction);
+2. runs flow segments until the centre-of-mass speed is steady (judged by
+   :func:`postproc.steady.detect_steady_state`, not assumed) or ``t_flow_max``
+   is reached;
+3. runs the averaging segments, each with its own binary particle dump.
+
+Every segment ends with a restart file, written under a temporary name and
+renamed only when LAMMPS finished cleanly, so a killed run resumes from the last
+complete segment and never mistakes a partial file for a finished one. Each
+segment keeps its full LAMMPS log in ``run/logs``. A LAMMPS ``ERROR`` line (or our
+own ``GRANFLOW_ERROR`` line) becomes a :class:`RunError` quoting that line.
+MPI ranks, not OpenMP threads, parallelise a run: measured faster for
+``gran/hooke/history`` on 2 cores (8.8 vs 6.0 Matom-step/s).
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+
+class RunError(RuntimeError):
+    """A LAMMPS run that failed; the message quotes the failing line and names the log."""
+
+
+@dataclass
+class Tools:
+    """Paths of the executables (the venv's by default)."""
+
+    lmp: str
+    mpirun: str
+
+    @classmethod
+    def default(cls) -> "Tools":
+        bindir = Path(sys.executable).parent
+        lmp = os.environ.get("GRANFLOW_LMP") or str(bindir / "lmp")
+        mpirun = os.environ.get("GRANFLOW_MPIRUN") or str(bindir / "mpirun")
+        if not Path(lmp).exists():
+            lmp = shutil.which("lmp") or lmp
+        if not Path(mpirun).exists():
+            mpirun = shutil.which("mpirun") or mpirun
+        return cls(lmp=lmp, mpirun=mpirun)
+
+
+def log(msg: str) -> None:
+    print(f"[granflow {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------ log parsing
+def parse_thermo(log_path: str | Path) -> pd.DataFrame:
+    """All thermo blocks of a LAMMPS log as one DataFrame (columns as LAMMPS names them)."""
+    frames = []
+    header = None
+    rows: list[list[float]] = []
+    for line in Path(log_path).read_text(errors="replace").splitlines():
+        words = line.split()
+        if words[:1] == ["Step"]:
+            header, rows = words, []
+            continue
+        if header is not None:
+            if line.startswith("Loop time") or len(words) != len(header):
+                if rows:
+                    frames.append(pd.DataFrame(rows, columns=header))
+                header, rows = None, []
+                continue
+            try:
+                rows.append([float(w) for w in words])
+            except ValueError:
+                if rows:
+                    frames.append(pd.DataFrame(rows, columns=header))
+                header, rows = None, []
+    if header is not None and rows:
+        frames.append(pd.DataFrame(rows, columns=header))
+    if not frames:
+        return pd.DataFrame()
+    return pd.concat(frames, ignore_index=True)
+
+
+def error_line(log_text: str) -> str | None:
+    """The first LAMMPS ``ERROR`` or granflow ``GRANFLOW_ERROR`` line of a log, if any."""
+    for line in log_text.splitlines():
+        s = line.strip()
+        if s.startswith("ERROR") or "GRANFLOW_ERROR" in s:
+            return s
+    return None
+
+
+def performance(log_text: str) -> list[float]:
+    """Matom-step/s figures of every run in a log."""
+    out = []
+    for line in log_text.splitlines():
+        if line.startswith("Performance:") and "Matom-step/s" in line:
+            out.append(float(line.split(",")[-1].split()[0]))
+    return out
+
+
+# ---------------------------------------------------------------------- runner
+class CaseRunner:
+    """Resumable, segmented execution of one rendered case."""
+
+    def __init__(self, case_dir: str | Path, nprocs: int = 1, tools: Tools | None = None):
+        self.case_dir = Path(case_dir).resolve()
+        self.run_dir = self.case_dir / "run"
+        self.log_dir = self.run_dir / "logs"
+        self.nprocs = max(1, int(nprocs))
+        self.tools = tools or Tools.default()
+        self.record = json.loads((self.case_dir / "params.json").read_text())
+
+    # -- one LAMMPS invocation ---------------------------------------------------
+    def _lammps(self, deck: str, name: str, variables: dict[str, str]) -> Path:
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        log_path = self.log_dir / f"{name}.log"
+        screen_path = self.log_dir / f"{name}.screen"
+        cmd = [self.tools.mpirun, "-np", str(self.nprocs), self.tools.lmp,
+               "-in", str(self.case_dir / deck), "-log", str(log_path), "-nocite"]
+        for k, v in variables.items():
+            cmd += ["-var", k, str(v)]
+        t0 = time.time()
+        with open(screen_path, "w") as screen:
+            proc = subprocess.run(cmd, cwd=self.run_dir, stdout=screen, stderr=subprocess.STDOUT)
+        text = (log_path.read_text(errors="replace") if log_path.exists() else "") + "\n" + \
+            screen_path.read_text(errors="replace")
+        bad = error_line(text)
+        if proc.returncode != 0 or bad:
+            reason = bad or f"LAMMPS exited with status {proc.returncode} and no ERROR line"
+            raise RunError(f"{self.case_dir.name}: segment {name} failed: {reason} (full log: {log_path})")
+        perf = performance(text)
+        log(f"{name}: {time.time() - t0:.1f} s" + (f", {max(perf):.2f} Matom-step/s" if perf else ""))
+        return log_path
+
+    def _segment(self, deck: str, name: str, restart_in: Path | None, extra: dict | None = None) -> Path:
+        """Run a segment unless its restart exists; return the restart path."""
+        out = self.run_dir / f"{name}.restart"
+        if out.exists():
+            log(f"{name}: done earlier, resuming after it")
+            return out
+        tmp = self.run_dir / f"{name}.restart.partial"
+        variables = {"restart_out": tmp.name}
+        if restart_in is not None:
+            variables["restart_in"] = restart_in.name
+        variables.update(extra or {})
+        self._lammps(deck, name, variables)
+        tmp.rename(out)
+        return out
+
+    def thermo(self, prefix: str) -> pd.DataFrame:
+        logs = sorted(self.log_dir.glob(f"{prefix}_*.log"))
+        parts = [parse_thermo(p).assign(segment=p.stem) for p in logs]
+        parts = [p for p in parts if not p.empty]
+        if not parts:
+            return pd.DataFrame()
+        df = pd.concat(parts, ignore_index=True)
+        return df.drop_duplicates(subset="Step", keep="last").reset_index(drop=True)
+
+    # -- the protocol --------------------------------------------------------------
+    def run(self) -> dict:
+        from postproc.steady import detect_steady_state
+
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        rec = self.record
+        proto = rec["protocol"]
+        t_seg = rec["t_segment"]
+        log(f"case {self.case_dir}: {rec['parameters']['n_particles']} particles, "
+            f"dt = {rec['dt']:.3g}, {self.nprocs} MPI rank(s)")
+        restart = self._segment("init.lmp", "init", None)
+
+        steady = None
+        n_flow = rec["n_flow_segments"]
+        for k in range(1, n_flow + 1):
+            restart = self._segment("flow.lmp", f"flow_{k:03d}", restart)
+            th = self.thermo("flow")
+            t, u = th["Time"].to_numpy(), th["v_ucm"].to_numpy()
+            t = t - t[0]
+            window = min(proto["steady_window"], 0.5 * t_seg * n_flow)
+            steady = detect_steady_state(t, u, window=window, rel_tol=proto["steady_rel_tol"])
+            log(f"flow {k}/{n_flow}: t = {t[-1]:.0f}, u_cm = {u[-1]:.4g}, {steady.status}"
+                + (f" ({steady.reason})" if steady.reason else ""))
+            if steady.status in ("steady", "jammed"):
+                break
+
+        n_avg = rec["n_average_segments"]
+        for j in range(1, n_avg + 1):
+            restart = self._segment("average.lmp", f"average_{j:03d}", restart,
+                                    {"dump_file": f"dump_{j:03d}.bin"})
+            log(f"average {j}/{n_avg} done")
+
+        thermo = pd.concat([self.thermo("flow").assign(stage="flow"),
+                            self.thermo("average").assign(stage="average")], ignore_index=True)
+        thermo.to_csv(self.run_dir / "thermo.csv", index=False)
+        all_logs = sorted(self.log_dir.glob("*.log"))
+        perf = [p for f in all_logs for p in performance(f.read_text(errors="replace"))]
+        status = {
+            "status": steady.status if steady else "unknown",
+            "steady": {k: (float(v) if isinstance(v, (int, float, np.floating)) else v)
+                       for k, v in vars(steady).items()} if steady else None,
+            "flow_segments": k,
+            "average_segments": n_avg,
+            "dumps": [f"dump_{j:03d}.bin" for j in range(1, n_avg + 1)],
+            "matom_step_per_s": max(perf) if perf else None,
+            "nprocs": self.nprocs,
+        }
+        (self.run_dir / "status.json").write_text(json.dumps(status, indent=2) + "\n")
+        return status
+
+
+def run_case(case_dir: str | Path, nprocs: int = 1) -> dict:
+    """Run (or resume) the case in ``case_dir``; see :class:`CaseRunner`."""
+    return CaseRunner(case_dir, nprocs).run()

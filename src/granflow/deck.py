@@ -93,6 +93,13 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
     def steps(t: float) -> int:
         return max(1, int(round(t / dt)))
 
+    # Segments and dump intervals are whole multiples of the thermo interval, so
+    # every thermo row closes a full interval of the every-step wall-force average.
+    n_thermo = steps(rung["thermo_interval"])
+
+    def thermo_multiple(t: float) -> int:
+        return n_thermo * max(1, int(round(t / dt / n_thermo)))
+
     params = [
         Param("W", W, "channel width (walls at x = 0 and x = W), d_p"),
         Param("B", B, "spanwise periodic depth (z), d_p"),
@@ -116,9 +123,9 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         Param("n_settle", steps(scene["protocol"]["settle_time"]), "steps to settle the rained bed"),
         Param("lid_speed", 0.2, "speed of the compressing lid, d_p/sqrt(d_p/g)"),
         Param("n_relax", steps(5.0), "steps to relax the bed under the lid after it stops"),
-        Param("n_segment", steps(rung["t_segment"]), "steps per flow/averaging segment"),
-        Param("n_thermo", steps(rung["thermo_interval"]), "steps between thermo samples"),
-        Param("n_dump", steps(rung["dump_interval"]), "steps between dumped frames"),
+        Param("n_segment", thermo_multiple(rung["t_segment"]), "steps per flow/averaging segment"),
+        Param("n_thermo", n_thermo, "steps between thermo samples"),
+        Param("n_dump", thermo_multiple(rung["dump_interval"]), "steps between dumped frames"),
     ]
     for prm in params:
         _number(prm.value)
@@ -156,7 +163,7 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         "n_flow_segments": max(1, math.ceil(rung["t_flow_max"] / rung["t_segment"] - 1e-9)),
         "n_average_segments": max(1, math.ceil(rung["t_average"] / rung["t_segment"] - 1e-9)),
         "dt": dt,
-        "t_segment": steps(rung["t_segment"]) * dt,
+        "t_segment": thermo_multiple(rung["t_segment"]) * dt,
         "dump_columns": columns,
         "density": p["density"],
         "species": [{"type": i + 1, "diameter": d, "mass": sphere_mass(d, p["density"])} for i, d in enumerate(diameters)],

@@ -93,7 +93,7 @@ def error_line(log_text: str) -> str | None:
     """The first LAMMPS ``ERROR`` or granflow ``GRANFLOW_ERROR`` line of a log, if any."""
     for line in log_text.splitlines():
         s = line.strip()
-        if s.startswith("ERROR") or "GRANFLOW_ERROR" in s:
+        if s.startswith("ERROR") or s.startswith("GRANFLOW_ERROR"):
             return s
     return None
 
@@ -118,6 +118,17 @@ class CaseRunner:
         self.nprocs = max(1, int(nprocs))
         self.tools = tools or Tools.default()
         self.record = json.loads((self.case_dir / "params.json").read_text())
+
+    def _guard_stale(self) -> None:
+        """Keep finished results of other parameters: move an old run aside, never overwrite it."""
+        stamp = self.run_dir / "params.json"
+        current = (self.case_dir / "params.json").read_text()
+        if self.run_dir.exists() and stamp.exists() and stamp.read_text() != current:
+            aside = self.case_dir / f"run.stale-{time.strftime('%Y%m%d-%H%M%S')}"
+            self.run_dir.rename(aside)
+            log(f"parameters changed since the last run: kept the old run as {aside.name}, starting afresh")
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        stamp.write_text(current)
 
     # -- one LAMMPS invocation ---------------------------------------------------
     def _lammps(self, deck: str, name: str, variables: dict[str, str]) -> Path:
@@ -163,13 +174,15 @@ class CaseRunner:
         if not parts:
             return pd.DataFrame()
         df = pd.concat(parts, ignore_index=True)
-        return df.drop_duplicates(subset="Step", keep="last").reset_index(drop=True)
+        # A segment's first row repeats the previous segment's last step; keep the
+        # earlier one, whose interval-averaged wall force covers a full interval.
+        return df.drop_duplicates(subset="Step", keep="first").reset_index(drop=True)
 
     # -- the protocol --------------------------------------------------------------
     def run(self) -> dict:
         from postproc.steady import detect_steady_state
 
-        self.run_dir.mkdir(parents=True, exist_ok=True)
+        self._guard_stale()
         rec = self.record
         proto = rec["protocol"]
         t_seg = rec["t_segment"]

@@ -1,0 +1,42 @@
+# granflow: two commands on a fresh machine.
+#   make demo  - create .venv, install everything, run the default campaign on 2 cores
+#   make test  - create .venv if missing, install, run the test suite
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+CORES  ?= 2
+STAMP  := $(VENV)/.installed
+
+.PHONY: venv demo test report bench clean-results help
+
+help:
+	@echo "make demo   - install into .venv and run the default campaign (snakemake --cores $(CORES))"
+	@echo "make test   - install into .venv and run the tests"
+	@echo "make report - build report.html from finished results"
+	@echo "make bench  - run the benchmarks in bench/ (by hand; results are recorded, not asserted)"
+
+$(STAMP): requirements.txt pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -r requirements.txt
+	$(BIN)/python -m pip install --quiet --no-deps -e .
+	touch $(STAMP)
+
+venv: $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/snakemake --cores $(CORES)
+	$(BIN)/snakemake --cores $(CORES) --report report.html
+
+test: $(STAMP)
+	PATH="$(CURDIR)/$(BIN):$$PATH" $(BIN)/python -m pytest -q
+
+report: $(STAMP)
+	$(BIN)/snakemake --cores $(CORES) --report report.html
+
+bench: $(STAMP)
+	$(BIN)/python bench/bench_channel.py
+	$(BIN)/python bench/bench_reader.py
+
+clean-results:
+	rm -rf results .snakemake report.html

@@ -1,0 +1,19 @@
+# granflow campaign: YAML cases -> LAMMPS runs -> fields -> figures and report.
+# Entry point: `snakemake --cores 2` (or `make demo`). Edit config/config.yaml
+# (campaign, sweep) or config/scenes/<scene>.yaml (physics, rungs) and rerun:
+# only the cases whose parameters changed run again.
+from snakemake.utils import min_version
+
+min_version("8.0")
+
+
+configfile: "config/config.yaml"
+
+
+include: "workflows/rules/common.smk"
+include: "workflows/rules/channel.smk"
+
+
+rule all:
+    input:
+        channel_targets(),

@@ -1,0 +1,54 @@
+"""Contact parameters and the time-step preflight."""
+import math
+
+import pytest
+
+from granflow.contact import build_contact_model, contact_time, damping_for_restitution
+from granflow.deck import channel_parameters
+from granflow.preflight import PreflightError
+
+
+def test_damping_reproduces_paper_pair():
+    # Debnath et al. (2022) App. A: k_n = 1e6 with xi_n = 180 gives e_n = 0.82 for
+    # a d_p pair in m_p units (m_eff = 1/2). Our inversion must give xi_n ~ 180.
+    xi = damping_for_restitution(1e6, 0.5, 0.82)
+    assert xi == pytest.approx(180.0, rel=0.01)
+    t_c, e = contact_time(1e6, 0.5, xi)
+    assert e == pytest.approx(0.82, rel=1e-12)
+    # paper time step 1.2e-4 resolves this contact with ~18 steps
+    assert t_c / 1.2e-4 == pytest.approx(18.5, rel=0.02)
+
+
+def test_stiffest_contact_is_smallest_pair(channel_scene):
+    model = build_contact_model(channel_scene, channel_scene["rungs"]["demo"])
+    assert model.stiffest.name == "0.9-0.9 pair"
+    # walls have infinite mass: m_eff = m_i, so a wall contact lasts longer than the pair's
+    walls = [c for c in model.contacts if "wall" in c.name]
+    assert all(c.t_c > model.stiffest.t_c for c in walls)
+
+
+def test_unsafe_time_step_refused_with_passing_value(channel_scene):
+    import copy
+
+    scene = copy.deepcopy(channel_scene)
+    rung = scene["rungs"]["smoke"]
+    soft = build_contact_model(scene, dict(rung, k_n=1e6))
+    rung.update(k_n=1e8, dt=0.08 * soft.stiffest.t_c)  # the time step of k_n = 1e6
+    with pytest.raises(PreflightError) as exc:
+        channel_parameters(scene, "smoke")
+    msg = str(exc.value)
+    assert "dt =" in msg and "limit 0.1 x t_c" in msg and "a value that passes" in msg
+    passing = float(msg.split("a value that passes: dt = ")[1].split()[0])
+    rung["dt"] = passing
+    channel_parameters(scene, "smoke")  # accepted
+
+
+def test_stiff_case_with_proper_step_accepted(channel_scene):
+    import copy
+
+    scene = copy.deepcopy(channel_scene)
+    scene["rungs"]["smoke"]["k_n"] = 1e8
+    params, ctx = channel_parameters(scene, "smoke")
+    p = {q.name: q.value for q in params}
+    assert p["dt"] <= 0.1 * p["t_c_min"]
+    assert math.isclose(p["k_t"], 2 / 7 * 1e8, rel_tol=1e-9)

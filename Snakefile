@@ -2,12 +2,14 @@
 # Entry point: `snakemake --cores 2` (or `make demo`). Edit config/config.yaml
 # (campaign, sweep) or config/scenes/<scene>.yaml (physics, rungs) and rerun:
 # only the cases whose parameters changed run again.
+import os
+
 from snakemake.utils import min_version
 
 min_version("8.0")
 
 
-configfile: "config/config.yaml"
+configfile: os.path.join(workflow.basedir, "config", "config.yaml")
 
 
 include: "workflows/rules/common.smk"

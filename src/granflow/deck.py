@@ -50,6 +50,15 @@ def environment() -> jinja2.Environment:
     )
 
 
+def species_counts(n: int, fractions: list[float]) -> list[int]:
+    """Integer counts per species summing to ``n`` (largest-remainder rounding)."""
+    raw = [n * f for f in fractions]
+    counts = [int(math.floor(r)) for r in raw]
+    for i in sorted(range(len(raw)), key=lambda i: raw[i] - counts[i], reverse=True)[: n - sum(counts)]:
+        counts[i] += 1
+    return counts
+
+
 def case_values(scene: dict, rung_name: str, case: dict | None = None) -> dict:
     """Merge the scene's default case, the rung and a sweep point into one case dict."""
     rung = check_rung(scene, rung_name)
@@ -87,8 +96,20 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
     v_mean = sum(f * math.pi * d**3 / 6 for d, f in zip(diameters, fractions))
     W, B, H = float(case["W"]), float(rung["B"]), float(rung["H"])
     n_particles = int(round(case["phi_mean"] * W * B * H / v_mean))
+    counts = species_counts(n_particles, fractions)
+    v_particles = sum(n * math.pi * d**3 / 6 for n, d in zip(counts, diameters))
+    H_per = v_particles / (case["phi_mean"] * W * B)
+    # lattice of the raining gas: cells of about v_mean/fill_packing, never
+    # narrower than the largest diameter; enough layers for n_particles sites
     fill = scene["protocol"]["fill_packing"]
-    fill_height = n_particles * v_mean / (fill * (W - 1.2) * B) + 1.2
+    d_max = max(diameters)
+    a = max((v_mean / fill) ** (1 / 3), 1.02 * d_max)
+    nx, nz = max(1, int((W - 1.2) // a)), max(1, int(B // a))
+    a_x, a_z = (W - 1.2) / nx, B / nz
+    if min(a_x, a_z) < d_max:
+        raise PreflightError(f"channel W = {W:g}, B = {B:g} too small for one lattice cell of {d_max:g} d_p")
+    n_layers = math.ceil(n_particles / (nx * nz))
+    fill_height = 1.2 + n_layers * a + 1.0
 
     def steps(t: float) -> int:
         return max(1, int(round(t / dt)))
@@ -106,8 +127,14 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         Param("H_nominal", H, "nominal periodic height; the deck sets H = V_particles/(phi_mean W B)"),
         Param("phi_mean", _number(case["phi_mean"]), "mean volume fraction phi-bar"),
         Param("n_particles", n_particles, "particles inserted: phi_mean W B H_nominal / <pi d^3/6>"),
-        Param("fill_height", round(fill_height, 6), "height of the raining gas region, d_p"),
-        Param("d_max", max(diameters), "largest diameter: minimum insertion distance, d_p"),
+        Param("H_per", round(H_per, 9), "periodic height V_particles/(phi_mean W B), d_p"),
+        Param("fill_height", round(fill_height, 6), "box height while the gas rains, d_p"),
+        Param("d_max", d_max, "largest diameter, d_p"),
+        Param("a_x", round(a_x, 9), "gas lattice cell along x, d_p"),
+        Param("a_y", round(a, 9), "gas lattice cell along y, d_p"),
+        Param("a_z", round(a_z, 9), "gas lattice cell along z, d_p"),
+        Param("n_layers", n_layers, "lattice layers of the gas"),
+        Param("jiggle", round(0.45 * (min(a_x, a, a_z) - d_max), 9), "random displacement of gas particles, d_p"),
         Param("density", p["density"], "material density, m_p/d_p^3 (a d_p sphere has mass 1)"),
         Param("seed", int(case["seed"]), "random seed of insertion and species assignment"),
         Param("k_n", model.k_n, "normal stiffness, m_p g/d_p"),
@@ -131,11 +158,7 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         _number(prm.value)
 
     n_types = len(diameters)
-    tail = [sum(fractions[i:]) for i in range(n_types)]
-    species_split = [
-        {"from_type": i, "to_type": i + 1, "ratio": round(tail[i] / tail[i - 1], 12)}
-        for i in range(1, n_types)
-    ]
+    species_split = [{"to_type": i + 1, "count": counts[i]} for i in range(1, n_types)]
     columns = list(eff["dump_columns"])
     if eff["spin_output"]:
         columns += SPIN_COLUMNS
@@ -166,7 +189,8 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         "t_segment": thermo_multiple(rung["t_segment"]) * dt,
         "dump_columns": columns,
         "density": p["density"],
-        "species": [{"type": i + 1, "diameter": d, "mass": sphere_mass(d, p["density"])} for i, d in enumerate(diameters)],
+        "species": [{"type": i + 1, "diameter": d, "count": counts[i], "mass": sphere_mass(d, p["density"])}
+                    for i, d in enumerate(diameters)],
         "effects": eff,
         "protocol": scene["protocol"],
     }

@@ -1,0 +1,80 @@
+"""Rendered decks: StrictUndefined, typed values, effects -> exactly those commands."""
+import copy
+import json
+import re
+import subprocess
+
+import jinja2
+import pytest
+
+from granflow.deck import STAGES, environment, render_case
+
+
+def test_template_has_no_undefined_slack():
+    env = environment()
+    assert env.undefined is jinja2.StrictUndefined
+    with pytest.raises(jinja2.UndefinedError):
+        env.get_template("channel.lmp.j2").render(stage="init")
+
+
+def test_every_number_is_a_commented_variable(channel_scene, tmp_path):
+    render_case(channel_scene, "demo", tmp_path)
+    text = (tmp_path / "init.lmp").read_text()
+    lines = [l for l in text.splitlines() if l.startswith("variable") and " equal " in l]
+    assert len(lines) > 20
+    for line in lines[:30]:
+        assert "#" in line, line
+    record = json.loads((tmp_path / "params.json").read_text())
+    assert record["parameters"]["dt"] <= 0.1 * record["parameters"]["t_c_min"]
+
+
+def _commands(path):
+    return [l.split()[0:3] for l in path.read_text().splitlines() if l and not l.startswith("#")]
+
+
+def test_effects_off_means_commands_absent(channel_scene, tmp_path):
+    scene = copy.deepcopy(channel_scene)
+    scene["effects"].update(per_atom_stress=False, spin_output=False, wall_force=False)
+    render_case(scene, "smoke", tmp_path)
+    avg = (tmp_path / "average.lmp").read_text()
+    assert "stress/atom" not in avg and "c_stress" not in avg
+    assert "omegax" not in avg
+    assert "contacts" not in avg and "f_fwavg" not in avg
+    # and with them on, they are present
+    render_case(channel_scene, "smoke", tmp_path / "on")
+    on = (tmp_path / "on" / "average.lmp").read_text()
+    assert "compute         stress all stress/atom NULL pair" in on
+    assert re.search(r"dump .* omegax omegay omegaz c_stress\[1\]", on)
+    # stress is computed only where it is dumped: never in the init or flow decks
+    for stage in ("init", "flow"):
+        assert "stress/atom" not in (tmp_path / "on" / f"{stage}.lmp").read_text()
+
+
+def test_monodisperse_has_one_type(channel_scene, tmp_path):
+    scene = copy.deepcopy(channel_scene)
+    scene["effects"]["polydisperse"] = False
+    render_case(scene, "smoke", tmp_path)
+    init = (tmp_path / "init.lmp").read_text()
+    assert "create_box      1 box" in init and "type/subset" not in init
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("rung", ["smoke", "demo", "study", "paper"])
+def test_every_rung_passes_skiprun(channel_scene, tmp_path, lmp, rung):
+    """Each stage's deck parses and sets up in LAMMPS (-skiprun skips the runs)."""
+    render_case(channel_scene, rung, tmp_path)
+    run = tmp_path / "run"
+    run.mkdir()
+    variables = {
+        "init": ["-var", "restart_out", "init.restart", "-var", "check_packing", "0"],
+        "flow": ["-var", "restart_in", "init.restart", "-var", "restart_out", "flow.restart"],
+        "average": ["-var", "restart_in", "init.restart", "-var", "restart_out", "avg.restart",
+                    "-var", "dump_file", "dump.bin"],
+    }
+    for stage in STAGES:
+        proc = subprocess.run([lmp, "-skiprun", "-in", str(tmp_path / f"{stage}.lmp"), "-log", "none",
+                               "-nocite", *variables[stage]], cwd=run, capture_output=True, text=True,
+                              timeout=300)
+        errors = [l for l in proc.stdout.splitlines() if l.startswith("ERROR")]
+        assert proc.returncode == 0 and not errors, f"{rung}/{stage}: {errors or proc.stdout[-2000:]}"
+    assert (run / "init.restart").exists()

@@ -198,7 +198,8 @@ class CaseRunner:
             t, u = th["Time"].to_numpy(), th["v_ucm"].to_numpy()
             t = t - t[0]
             window = min(proto["steady_window"], 0.5 * t_seg * n_flow)
-            steady = detect_steady_state(t, u, window=window, rel_tol=proto["steady_rel_tol"])
+            steady = detect_steady_state(t, u, window=window, rel_tol=proto["steady_rel_tol"],
+                                         fluct_tol=proto["steady_fluct_tol"])
             log(f"flow {k}/{n_flow}: t = {t[-1]:.0f}, u_cm = {u[-1]:.4g}, {steady.status}"
                 + (f" ({steady.reason})" if steady.reason else ""))
             if steady.status in ("steady", "jammed"):

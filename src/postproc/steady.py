@@ -84,6 +84,7 @@ def detect_steady_state(
     rel_tol: float = 0.01,
     jam_speed: float = DEFAULT_JAM_SPEED,
     grid_step: float | None = None,
+    fluct_tol: float | None = None,
 ) -> SteadyState:
     """Decide whether a centre-of-mass velocity series reached a steady state.
 
@@ -129,8 +130,9 @@ def detect_steady_state(
     u = np.asarray(u, dtype=float)
     if t.shape != u.shape or t.ndim != 1:
         raise ValueError(f"t and u must be 1-D arrays of equal length, got {t.shape} and {u.shape}")
-    if window <= 0 or rel_tol <= 0:
-        raise ValueError("window and rel_tol must be positive")
+    fluct_tol = rel_tol if fluct_tol is None else float(fluct_tol)
+    if window <= 0 or rel_tol <= 0 or fluct_tol <= 0:
+        raise ValueError("window, rel_tol and fluct_tol must be positive")
     good = np.isfinite(t) & np.isfinite(u)
     order = np.argsort(t[good], kind="stable")
     t, u = t[good][order], u[good][order]
@@ -155,14 +157,15 @@ def detect_steady_state(
         t_s = min(t_s, t_end - window)
         seg = t >= t_s
         mean, fluct, slope, drift = _segment_statistics(t[seg], u[seg])
-        if fluct < rel_tol and drift < rel_tol:
+        if fluct < fluct_tol and drift < rel_tol:
             return SteadyState(STEADY, float(t[seg][0]), mean, fluct, slope,
                                f"from t = {t[seg][0]:.4g} to {t_end:.4g}: relative fluctuation "
-                               f"{fluct:.2%} and relative drift {drift:.2%} both below {rel_tol:.2%}")
+                               f"{fluct:.2%} (< {fluct_tol:.2%}) and relative drift {drift:.2%} "
+                               f"(< {rel_tol:.2%})")
     return SteadyState(NO_STEADY_STATE, nan, mean_last, fluct_last, slope_last,
                        f"over the last {window:.4g} time units the relative drift is {drift_last:.2%} "
                        f"(slope {slope_last:.3g} per time unit) and the relative fluctuation "
-                       f"{fluct_last:.2%}; tolerance {rel_tol:.2%} for both")
+                       f"{fluct_last:.2%}; tolerances {rel_tol:.2%} (drift) and {fluct_tol:.2%} (fluctuation)")
 
 
 def block_average(x, n_blocks: int) -> tuple[float, float]:

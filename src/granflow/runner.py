@@ -167,8 +167,14 @@ class CaseRunner:
         tmp.rename(out)
         return out
 
-    def thermo(self, prefix: str) -> pd.DataFrame:
-        logs = sorted(self.log_dir.glob(f"{prefix}_*.log"))
+    def thermo(self, prefix: str, upto: int | None = None) -> pd.DataFrame:
+        """Thermo rows of the *completed* segments ``prefix_001 .. prefix_upto``.
+
+        A log whose segment has no restart (killed part-way) is left out.
+        """
+        logs = [p for p in sorted(self.log_dir.glob(f"{prefix}_*.log"))
+                if (self.run_dir / f"{p.stem}.restart").exists()
+                and (upto is None or int(p.stem.rsplit("_", 1)[1]) <= upto)]
         parts = [parse_thermo(p).assign(segment=p.stem) for p in logs]
         parts = [p for p in parts if not p.empty]
         if not parts:
@@ -194,7 +200,7 @@ class CaseRunner:
         n_flow = rec["n_flow_segments"]
         for k in range(1, n_flow + 1):
             restart = self._segment("flow.lmp", f"flow_{k:03d}", restart)
-            th = self.thermo("flow")
+            th = self.thermo("flow", upto=k)
             t, u = th["Time"].to_numpy(), th["v_ucm"].to_numpy()
             t = t - t[0]
             window = min(proto["steady_window"], 0.5 * t_seg * n_flow)
@@ -211,8 +217,8 @@ class CaseRunner:
                                     {"dump_file": f"dump_{j:03d}.bin"})
             log(f"average {j}/{n_avg} done")
 
-        thermo = pd.concat([self.thermo("flow").assign(stage="flow"),
-                            self.thermo("average").assign(stage="average")], ignore_index=True)
+        thermo = pd.concat([self.thermo("flow", upto=k).assign(stage="flow"),
+                            self.thermo("average", upto=n_avg).assign(stage="average")], ignore_index=True)
         thermo.to_csv(self.run_dir / "thermo.csv", index=False)
         all_logs = sorted(self.log_dir.glob("*.log"))
         perf = [p for f in all_logs for p in performance(f.read_text(errors="replace"))]

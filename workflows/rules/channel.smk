@@ -57,7 +57,7 @@ rule channel_simulate:
     output:
         status=CHANNEL_CASE + "/run/status.json",
         thermo=CHANNEL_CASE + "/run/thermo.csv",
-    threads: 2
+    threads: simulate_threads
     log:
         CHANNEL_CASE + "/logs/simulate.log",
     script:

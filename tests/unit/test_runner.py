@@ -1,0 +1,39 @@
+"""Runner pieces that need no LAMMPS: log parsing, error lines, resumable thermo."""
+import json
+import shutil
+
+import pandas as pd
+
+from granflow.runner import CaseRunner, error_line, parse_thermo, performance
+
+
+def test_parse_thermo_and_performance(root):
+    log = root / "tests" / "data" / "segment_two_runs.log"
+    th = parse_thermo(log)
+    assert list(th["Step"]) == [0, 2, 4]
+    assert th["f_fwavg"].iloc[-1] == 0.5
+    assert performance(log.read_text()) == [0.171]
+
+
+def test_error_line_quotes_lammps_error_not_echoed_commands(root):
+    text = (root / "tests" / "data" / "segment_two_runs.log").read_text()
+    assert error_line(text) is None  # an echoed `print "GRANFLOW_ERROR..."` command is not an error
+    bad = text + "ERROR: Lost atoms: original 428 current 403 (src/thermo.cpp:494)\n"
+    assert error_line(bad).startswith("ERROR: Lost atoms")
+    assert error_line("GRANFLOW_ERROR: packed column top 9.9 reaches ...\n").startswith("GRANFLOW_ERROR")
+
+
+def test_thermo_ignores_killed_segments(root, tmp_path):
+    """A segment killed part-way (log but no restart) must not feed steady detection."""
+    (tmp_path / "params.json").write_text(json.dumps({"protocol": {}}))
+    logs = tmp_path / "run" / "logs"
+    logs.mkdir(parents=True)
+    src = root / "tests" / "data" / "segment_two_runs.log"
+    for name in ("flow_001", "flow_002"):
+        shutil.copy(src, logs / f"{name}.log")
+    (tmp_path / "run" / "flow_001.restart").write_text("complete")
+    runner = CaseRunner(tmp_path)
+    th = runner.thermo("flow")
+    assert set(th["segment"]) == {"flow_001"}
+    assert runner.thermo("flow", upto=0).empty
+    assert isinstance(th, pd.DataFrame) and len(th) == 3

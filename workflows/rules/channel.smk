@@ -4,12 +4,13 @@ import json
 
 CHANNEL = f"{RESULTS}/channel/{RUNG}"
 CHANNEL_CASE = CHANNEL + "/W~{W}/phi~{phi}"
+# figure name -> paper figure; captions in workflows/report/channel_figure.rst
 CHANNEL_FIGURES = {
-    "fig04_velocity": "fig04_velocity.rst",
-    "fig05c_ratio": "fig05c_ratio.rst",
-    "fig06_stress": "fig06_stress.rst",
-    "fig08_phi_shear_T": "fig08_phi_shear_T.rst",
-    "fig11_rheology": "fig11_rheology.rst",
+    "fig04_velocity": "4",
+    "fig05c_ratio": "5(c)",
+    "fig06_stress": "6",
+    "fig08_phi_shear_T": "8",
+    "fig11_rheology": "11",
 }
 
 
@@ -95,7 +96,7 @@ rule channel_figure:
         profiles=channel_all_profiles,
     output:
         figure=report(CHANNEL + "/figures/{figure}.png",
-                      caption="../report/{figure}.rst", category="channel"),
+                      caption="../report/channel_figure.rst", category="channel"),
     wildcard_constraints:
         figure="|".join(CHANNEL_FIGURES),
     log:

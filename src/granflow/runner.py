@@ -15,7 +15,9 @@ complete segment and never mistakes a partial file for a finished one. Each
 segment keeps its full LAMMPS log in ``run/logs``. A LAMMPS ``ERROR`` line (or our
 own ``GRANFLOW_ERROR`` line) becomes a :class:`RunError` quoting that line.
 MPI ranks, not OpenMP threads, parallelise a run: measured faster for
-``gran/hooke/history`` on 2 cores (8.8 vs 6.0 Matom-step/s).
+``gran/hooke/history`` on 2 cores (8.8 vs 6.0 Matom-step/s for a 10k bed).
+Small cases of a campaign are better run one rank each, side by side (see
+``simulate_threads`` in ``workflows/rules/common.smk``).
 """
 from __future__ import annotations
 

@@ -51,9 +51,10 @@ def channel_case_dir(W, phi):
 def simulate_threads(wildcards):
     """MPI ranks per run: 1 for the small smoke/demo cases, all cores above.
 
-    Measured on 2 cores: a 2161-particle demo channel runs at 2.5-3.0
-    Matom-step/s on 2 ranks but 3.2-4 on 1 rank while a second case runs
-    beside it, so small cases go one rank each, in parallel. Override with
-    `--set-threads channel_simulate=N`.
+    Measured on 2 cores with bench/bench_channel.py (2089-particle demo
+    channel, flow / averaging stages): one case on 2 ranks 17.6 / 11.2
+    Matom-step/s; two cases side by side on 1 rank each 12.5 + 13.0 / 7.0 + 7.2.
+    A campaign of small cases thus runs ~1.3-1.45x faster one rank per case.
+    Override with `--set-threads channel_simulate=N`.
     """
     return 1 if RUNG in ("smoke", "demo") else workflow.cores

@@ -130,6 +130,9 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         Param("H_per", round(H_per, 9), "periodic height V_particles/(phi_mean W B), d_p"),
         Param("fill_height", round(fill_height, 6), "box height while the gas rains, d_p"),
         Param("d_max", d_max, "largest diameter, d_p"),
+        Param("d_min", min(diameters), "smallest diameter, d_p"),
+        Param("max_overlap", scene["guards"]["max_overlap"], "halt: largest overlap / d_min above this"),
+        Param("max_speed", scene["guards"]["max_speed"], "halt: rms particle speed above this, sqrt(g d_p)"),
         Param("a_x", round(a_x, 9), "gas lattice cell along x, d_p"),
         Param("a_y", round(a, 9), "gas lattice cell along y, d_p"),
         Param("a_z", round(a_z, 9), "gas lattice cell along z, d_p"),
@@ -149,7 +152,7 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         Param("skin", 0.3, "neighbour skin, d_p (bin size = largest diameter + skin)"),
         Param("n_settle", steps(scene["protocol"]["settle_time"]), "steps to settle the rained bed"),
         Param("lid_speed", 0.2, "speed of the compressing lid, d_p/sqrt(d_p/g)"),
-        Param("n_relax", steps(5.0), "steps to relax the bed under the lid after it stops"),
+        Param("n_relax", steps(0.2 * scene["protocol"]["settle_time"]), "steps to relax the bed under the lid (0.2 settle_time)"),
         Param("n_segment", thermo_multiple(rung["t_segment"]), "steps per flow/averaging segment"),
         Param("n_thermo", n_thermo, "steps between thermo samples"),
         Param("n_dump", thermo_multiple(rung["dump_interval"]), "steps between dumped frames"),
@@ -193,6 +196,7 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
                     for i, d in enumerate(diameters)],
         "effects": eff,
         "protocol": scene["protocol"],
+        "guards": scene["guards"],
     }
     return params, {**context, "record": record}
 

@@ -38,6 +38,26 @@ class RunError(RuntimeError):
     """A LAMMPS run that failed; the message quotes the failing line and names the log."""
 
 
+class UnstableRun(RunError):
+    """A run stopped by one of the deck's guards (``fix halt``): a named, expected outcome."""
+
+    def __init__(self, message: str, reason: str):
+        super().__init__(message)
+        self.reason = reason
+
+
+#: fix-id of each guard in lammps_inputs/include/guards.lmp.j2 -> what it means
+GUARDS = {
+    "halt_overlap": "largest contact overlap exceeded guards.max_overlap of the smallest diameter",
+    "halt_speed": "rms particle speed exceeded guards.max_speed (kinetic-energy runaway)",
+}
+
+
+def dangerous_builds(log_text: str) -> int:
+    """Sum of LAMMPS's ``Dangerous builds = N`` lines in a log."""
+    return sum(int(l.split("=")[1]) for l in log_text.splitlines() if l.startswith("Dangerous builds ="))
+
+
 @dataclass
 class Tools:
     """Paths of the executables (the venv's by default)."""
@@ -149,7 +169,11 @@ class CaseRunner:
         bad = error_line(text)
         if proc.returncode != 0 or bad:
             reason = bad or f"LAMMPS exited with status {proc.returncode} and no ERROR line"
-            raise RunError(f"{self.case_dir.name}: segment {name} failed: {reason} (full log: {log_path})")
+            message = f"{self.case_dir.name}: segment {name} failed: {reason} (full log: {log_path})"
+            for fix_id, meaning in GUARDS.items():
+                if bad and f"fix-id {fix_id} " in bad:
+                    raise UnstableRun(message, f"{meaning}, in segment {name}: {bad}")
+            raise RunError(message)
         perf = performance(text)
         log(f"{name}: {time.time() - t0:.1f} s" + (f", {max(perf):.2f} Matom-step/s" if perf else ""))
         return log_path
@@ -188,6 +212,13 @@ class CaseRunner:
 
     # -- the protocol --------------------------------------------------------------
     def run(self) -> dict:
+        """Run or resume the protocol; returns (and writes) ``run/status.json``.
+
+        ``status`` is ``steady`` (averaged), or a named reason without averaging:
+        ``jammed``, ``no_steady_state`` or ``unstable`` (a guard stopped LAMMPS,
+        or the log shows dangerous neighbour builds). Other LAMMPS errors raise
+        :class:`RunError` and the rule fails.
+        """
         from postproc.steady import detect_steady_state
 
         self._guard_stale()
@@ -196,46 +227,69 @@ class CaseRunner:
         t_seg = rec["t_segment"]
         log(f"case {self.case_dir}: {rec['parameters']['n_particles']} particles, "
             f"dt = {rec['dt']:.3g}, {self.nprocs} MPI rank(s)")
-        restart = self._segment("init.lmp", "init", None)
+        steady, k, n_avg, unstable = None, 0, 0, None
+        try:
+            restart = self._segment("init.lmp", "init", None)
+            n_flow = rec["n_flow_segments"]
+            for k in range(1, n_flow + 1):
+                restart = self._segment("flow.lmp", f"flow_{k:03d}", restart)
+                th = self.thermo("flow", upto=k)
+                t, u = th["Time"].to_numpy(), th["v_ucm"].to_numpy()
+                t = t - t[0]
+                window = min(proto["steady_window"], 0.5 * t_seg * n_flow)
+                steady = detect_steady_state(t, u, window=window, rel_tol=proto["steady_rel_tol"],
+                                             fluct_tol=proto["steady_fluct_tol"])
+                log(f"flow {k}/{n_flow}: t = {t[-1]:.0f}, u_cm = {u[-1]:.4g}, {steady.status}"
+                    + (f" ({steady.reason})" if steady.reason else ""))
+                if steady.status in ("steady", "jammed"):
+                    break
+            if steady.status == "steady" or proto.get("average_unsteady"):
+                n_avg = rec["n_average_segments"]
+                for j in range(1, n_avg + 1):
+                    restart = self._segment("average.lmp", f"average_{j:03d}", restart,
+                                            {"dump_file": f"dump_{j:03d}.bin"})
+                    log(f"average {j}/{n_avg} done")
+            else:
+                log(f"not averaged: {steady.status} is not a steady flow (protocol.average_unsteady is false)")
+        except UnstableRun as exc:
+            unstable = exc.reason
+            log(f"stopped by a guard: {exc.reason}")
+        return self._conclude(steady, k, n_avg, unstable)
 
-        steady = None
-        n_flow = rec["n_flow_segments"]
-        for k in range(1, n_flow + 1):
-            restart = self._segment("flow.lmp", f"flow_{k:03d}", restart)
-            th = self.thermo("flow", upto=k)
-            t, u = th["Time"].to_numpy(), th["v_ucm"].to_numpy()
-            t = t - t[0]
-            window = min(proto["steady_window"], 0.5 * t_seg * n_flow)
-            steady = detect_steady_state(t, u, window=window, rel_tol=proto["steady_rel_tol"],
-                                         fluct_tol=proto["steady_fluct_tol"])
-            log(f"flow {k}/{n_flow}: t = {t[-1]:.0f}, u_cm = {u[-1]:.4g}, {steady.status}"
-                + (f" ({steady.reason})" if steady.reason else ""))
-            if steady.status in ("steady", "jammed"):
-                break
-
-        n_avg = rec["n_average_segments"]
-        for j in range(1, n_avg + 1):
-            restart = self._segment("average.lmp", f"average_{j:03d}", restart,
-                                    {"dump_file": f"dump_{j:03d}.bin"})
-            log(f"average {j}/{n_avg} done")
-
-        thermo = pd.concat([self.thermo("flow", upto=k).assign(stage="flow"),
-                            self.thermo("average", upto=n_avg).assign(stage="average")], ignore_index=True)
+    def _conclude(self, steady, k: int, n_avg: int, unstable: str | None) -> dict:
+        rec = self.record
+        parts = [self.thermo("flow", upto=k).assign(stage="flow")]
+        if n_avg:
+            parts.append(self.thermo("average", upto=n_avg).assign(stage="average"))
+        thermo = pd.concat(parts, ignore_index=True)
         thermo.to_csv(self.run_dir / "thermo.csv", index=False)
-        all_logs = sorted(self.log_dir.glob("*.log"))
-        perf = [p for f in all_logs for p in performance(f.read_text(errors="replace"))]
-        status = {
-            "status": steady.status if steady else "unknown",
-            "steady": {k: (float(v) if isinstance(v, (int, float, np.floating)) else v)
-                       for k, v in vars(steady).items()} if steady else None,
+        texts = [f.read_text(errors="replace") for f in sorted(self.log_dir.glob("*.log"))]
+        perf = [p for text in texts for p in performance(text)]
+        n_dangerous = sum(dangerous_builds(text) for text in texts)
+        max_overlap = float(thermo["v_overlap"].max()) if "v_overlap" in thermo else float("nan")
+        status, reason = (steady.status, steady.reason) if steady else ("unknown", "no flow segment ran")
+        if unstable:
+            status, reason = "unstable", unstable
+        elif n_dangerous:
+            status, reason = "unstable", f"{n_dangerous} dangerous neighbour builds in the logs"
+        out = {
+            "status": status,
+            "reason": reason,
+            "steady": {key: (float(v) if isinstance(v, (int, float, np.floating)) else v)
+                       for key, v in vars(steady).items()} if steady else None,
             "flow_segments": k,
             "average_segments": n_avg,
             "dumps": [f"dump_{j:03d}.bin" for j in range(1, n_avg + 1)],
+            "dangerous_builds": n_dangerous,
+            "max_overlap": max_overlap,
+            "overlap_below_report_limit": bool(max_overlap < rec["guards"]["report_overlap"]),
             "matom_step_per_s": max(perf) if perf else None,
             "nprocs": self.nprocs,
         }
-        (self.run_dir / "status.json").write_text(json.dumps(status, indent=2) + "\n")
-        return status
+        (self.run_dir / "status.json").write_text(json.dumps(out, indent=2) + "\n")
+        log(f"status {status}: {reason}; largest overlap {max_overlap:.3g} d_min, "
+            f"{n_dangerous} dangerous builds")
+        return out
 
 
 def run_case(case_dir: str | Path, nprocs: int = 1) -> dict:

@@ -12,18 +12,28 @@ from postproc.pipeline import channel_profile, momentum_balance  # noqa: E402
 case_dir = Path(snakemake.input.params).parent
 record = json.loads(Path(snakemake.input.params).read_text())
 status = json.loads(Path(snakemake.input.status).read_text())
-profile, facts = channel_profile(case_dir)
-profile.to_csv(snakemake.output.profile, index=False)
-
 W, phi = record["parameters"]["W"], record["parameters"]["phi_mean"]
-scalars = analyse_channel(profile, W, phi)
 thermo = pd.read_csv(snakemake.input.thermo)
-balance = momentum_balance(thermo[thermo["stage"] == "average"], facts["total_mass"])
+total_mass = sum(s["count"] * s["mass"] for s in record["species"])
+if status["dumps"]:
+    profile, facts = channel_profile(case_dir)
+    scalars = analyse_channel(profile, W, phi)
+    window = thermo[thermo["stage"] == "average"]
+else:
+    # not averaged (jammed, no steady state, unstable): an empty profile, the reason in the table
+    profile = pd.DataFrame(columns=["x", "x_lo", "x_hi"])
+    facts = {"n_particles": record["parameters"]["n_particles"], "n_frames": 0, "total_mass": total_mass}
+    scalars = {"notes": f"not averaged: {status['status']}"}
+    window = thermo
+profile.to_csv(snakemake.output.profile, index=False)
+balance = momentum_balance(window, facts["total_mass"])
 k = record["rung_knobs"]
 scalars.update({
     "rung": record["rung"], "W": W, "phi_mean": phi, "B": k["B"], "k_n": k["k_n"],
     "dt": record["dt"], "n_particles": facts["n_particles"], "n_frames": facts["n_frames"],
-    "status": status["status"], "steady_reason": (status.get("steady") or {}).get("reason"),
+    "status": status["status"], "status_reason": status.get("reason"),
+    "max_overlap": status.get("max_overlap"), "dangerous_builds": status.get("dangerous_builds"),
+    "averaged_unsteady": bool(status["dumps"]) and status["status"] != "steady",
     "momentum_residual": balance["residual"], "momentum_steady_residual": balance["steady_residual"],
     "wall_force": balance["wall_force"], "weight": balance["weight"],
     "matom_step_per_s": status.get("matom_step_per_s"),

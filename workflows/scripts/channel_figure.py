@@ -18,6 +18,17 @@ FIGURES = {
 cases = []
 for sp, pp in zip(snakemake.input.scalars, snakemake.input.profiles):
     s = json.loads(Path(sp).read_text())
+    profile = pd.read_csv(pp)
+    if profile.empty:  # not averaged: shown in the table with its status, not in the figures
+        continue
     cases.append({"label": f"W={s['W']:g}, φ̄={s['phi_mean']:g}", "W": s["W"], "phi_mean": s["phi_mean"],
-                  "profile": pd.read_csv(pp), "scalars": s, "provenance": s["provenance"]})
-FIGURES[snakemake.wildcards.figure](cases, snakemake.output.figure)
+                  "profile": profile, "scalars": s, "provenance": s["provenance"]})
+if cases:
+    FIGURES[snakemake.wildcards.figure](cases, snakemake.output.figure)
+else:  # say so in the figure's place rather than fail the campaign
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6, 2))
+    fig.text(0.5, 0.5, "no averaged case: every case is jammed, unsteady or unstable\n(see table.csv)",
+             ha="center", va="center")
+    fig.savefig(snakemake.output.figure, dpi=150)

@@ -1,0 +1,102 @@
+"""Faults lose nothing: a killed run resumes; a damaged dump fails loudly and
+leaves nothing downstream marked complete."""
+import copy
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from granflow.deck import render_case
+from granflow.runner import run_case
+from postproc.dump import DumpError
+from postproc.pipeline import channel_profile
+
+pytestmark = pytest.mark.lammps
+BIN = Path(sys.executable).parent
+
+
+def two_segment_scene(scene):
+    s = copy.deepcopy(scene)
+    s["protocol"]["average_unsteady"] = True
+    s["rungs"]["smoke"].update(t_flow_max=5.0, t_segment=5.0, t_average=10.0, dump_interval=0.5)
+    return s
+
+
+def test_killed_run_resumes_and_agrees(channel_scene, tmp_path):
+    scene = two_segment_scene(channel_scene)
+    ref, killed = tmp_path / "ref", tmp_path / "killed"
+    render_case(scene, "smoke", ref, {"phi_mean": 0.58})
+    render_case(scene, "smoke", killed, {"phi_mean": 0.58})
+    run_case(ref, 1)
+
+    proc = subprocess.Popen([str(BIN / "granflow"), "run", str(killed), "--np", "1"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    marker = killed / "run" / "average_001.restart"
+    deadline = time.time() + 300
+    while not marker.exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    assert marker.exists(), "the run never reached its second averaging segment"
+    time.sleep(0.5)  # well inside the second averaging segment (several seconds long)
+    os.killpg(proc.pid, signal.SIGTERM)
+    proc.wait(timeout=60)
+    assert not (killed / "run" / "average_002.restart").exists(), "the kill came too late to test resuming"
+    assert (killed / "run" / "logs" / "average_002.log").exists(), "the killed segment's log is kept"
+    first_restart_mtime = marker.stat().st_mtime
+
+    status = run_case(killed, 1)  # the rerun resumes
+    assert status["average_segments"] == 2
+    assert marker.stat().st_mtime == first_restart_mtime, "completed segments are not rerun"
+
+    a, _ = channel_profile(ref)
+    b, _ = channel_profile(killed)
+    # statistically equal: within 3 combined standard errors in every bin
+    diff = np.abs(a["u_y"] - b["u_y"])
+    tol = 3 * np.hypot(a["u_y_se"], b["u_y_se"]) + 1e-9
+    assert (diff <= tol).all(), pd.DataFrame({"x": a["x"], "diff": diff, "tol": tol})
+
+
+def test_truncated_dump_fails_naming_file_and_frame(channel_scene, tmp_path):
+    scene = two_segment_scene(channel_scene)
+    render_case(scene, "smoke", tmp_path, {"phi_mean": 0.58})
+    run_case(tmp_path, 1)
+    dump = tmp_path / "run" / "dump_002.bin"
+    size = dump.stat().st_size
+    with open(dump, "r+b") as f:
+        f.truncate(size - 1000)
+    with pytest.raises(DumpError) as exc:
+        channel_profile(tmp_path)
+    msg = str(exc.value)
+    assert "dump_002.bin" in msg and "frame" in msg and "truncated" in msg
+
+
+def test_snakemake_marks_nothing_complete_after_a_failure(tmp_path, root):
+    """A damaged dump makes the analysis rule fail; its outputs do not exist afterwards."""
+    results = tmp_path / "results"
+    scene = (root / "config" / "scenes" / "channel.yaml").read_text()
+    (tmp_path / "channel.yaml").write_text(scene.replace("average_unsteady: false", "average_unsteady: true"))
+    cfg = tmp_path / "config.yaml"
+    cfg.write_text(f"rung: smoke\nresults_dir: {results}\nscenes:\n  channel:\n    enabled: true\n"
+                   f"    scene_file: {tmp_path / 'channel.yaml'}\n    sweep:\n      W: [10]\n      phi_mean: [0.58]\n")
+    case = results / "channel" / "smoke" / "W~10" / "phi~0.58"
+    base = [str(BIN / "snakemake"), "--snakefile", str(root / "Snakefile"), "--directory", str(tmp_path),
+            "--configfile", str(cfg), "--cores", "2"]
+    sim = subprocess.run(base + [str(case / "run" / "status.json"), "--quiet", "rules"],
+                         capture_output=True, text=True, timeout=600)
+    assert sim.returncode == 0, sim.stderr[-2000:]
+    dump = case / "run" / "dump_001.bin"
+    with open(dump, "r+b") as f:
+        f.truncate(dump.stat().st_size // 2)
+    out = subprocess.run(base, capture_output=True, text=True, timeout=600)
+    assert out.returncode != 0
+    assert not (case / "analysis" / "scalars.json").exists()
+    assert not (results / "channel" / "smoke" / "table.csv").exists()
+    log = (case / "logs" / "analyse.log").read_text()
+    assert "dump_001.bin" in log and "frame" in log

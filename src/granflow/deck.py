@@ -16,7 +16,7 @@ import jinja2
 
 from .config import PROJECT_ROOT, check_rung
 from .contact import ContactModel, build_contact_model, sphere_mass
-from .preflight import PreflightError, check_time_step
+from .preflight import PreflightError, check_time_step, neighbor_settings
 
 TEMPLATE_DIR = PROJECT_ROOT / "lammps_inputs"
 STAGES = ("init", "flow", "average")
@@ -111,6 +111,12 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
     n_layers = math.ceil(n_particles / (nx * nz))
     fill_height = 1.2 + n_layers * a + 1.0
 
+    # the fastest expected motion: free fall of the gas from the top of the fill
+    # region, three times over for collisions and the flow
+    v_max = 3.0 * math.sqrt(2.0 * fill_height)
+    skin = scene["contact"]["neighbor_skin"]
+    neigh = neighbor_settings(diameters, skin, dt, v_max)
+
     def steps(t: float) -> int:
         return max(1, int(round(t / dt)))
 
@@ -149,7 +155,9 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         Param("fill_friction", scene["protocol"]["fill_friction"], "friction while the bed settles"),
         Param("t_c_min", round(model.stiffest.t_c, 9), f"shortest contact time ({model.stiffest.name}), sqrt(d_p/g)"),
         Param("dt", round(dt, 10), f"time step = {dt / model.stiffest.t_c:.4g} t_c_min"),
-        Param("skin", 0.3, "neighbour skin, d_p (bin size = largest diameter + skin)"),
+        Param("skin", skin, "neighbour skin, d_p (>= 2 v_max dt; bin size from the largest cutoff)"),
+        Param("neigh_one", neigh["neigh_one"], f"max neighbours per particle (size ratio {neigh['size_ratio']:.3g})"),
+        Param("neigh_page", neigh["neigh_page"], "neighbour page size (>= 10 neigh_one)"),
         Param("n_settle", steps(scene["protocol"]["settle_time"]), "steps to settle the rained bed"),
         Param("lid_speed", 0.2, "speed of the compressing lid, d_p/sqrt(d_p/g)"),
         Param("n_relax", steps(0.2 * scene["protocol"]["settle_time"]), "steps to relax the bed under the lid (0.2 settle_time)"),

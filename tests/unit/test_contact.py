@@ -52,3 +52,39 @@ def test_stiff_case_with_proper_step_accepted(channel_scene):
     p = {q.name: q.value for q in params}
     assert p["dt"] <= 0.1 * p["t_c_min"]
     assert math.isclose(p["k_t"], 2 / 7 * 1e8, rel_tol=1e-9)
+
+
+def test_neighbour_settings_scale_with_size_ratio():
+    from granflow.preflight import LAMMPS_ONE, neighbor_settings
+
+    mono = neighbor_settings([1.0], 0.3, 1e-3, 10.0)
+    assert mono["neigh_one"] == LAMMPS_ONE
+    # a size ratio of 30 needs far more than the default 2000 neighbours per particle
+    big = neighbor_settings([1.0, 30.0], 0.3, 1e-3, 10.0)
+    assert big["neigh_one"] > LAMMPS_ONE and big["neigh_page"] >= 10 * big["neigh_one"]
+    # bound = 2 phi_rcp ((d_max + d_min)/2 + skin)^3 / (d_min/2)^3
+    assert big["neigh_one"] == pytest.approx(2 * 0.64 * (15.5 + 0.3) ** 3 / 0.125, rel=1e-3)
+
+
+def test_skin_too_small_refused_with_passing_value():
+    from granflow.preflight import neighbor_settings
+
+    with pytest.raises(PreflightError) as exc:
+        neighbor_settings([1.0, 3.0], 0.01, 1e-3, 20.0)  # 0.02 per step > skin/2
+    msg = str(exc.value)
+    assert "skin = 0.01" in msg and "limit skin >=" in msg and "a value that passes" in msg
+
+
+def test_size_ratio_three_renders(channel_scene, tmp_path):
+    import copy
+
+    from granflow.deck import render_case
+
+    scene = copy.deepcopy(channel_scene)
+    scene["particles"].update(diameters=[1.0, 3.0], number_fractions=[0.9, 0.1])
+    scene["rungs"]["smoke"].update(W=12.0, B=7.0)
+    record = render_case(scene, "smoke", tmp_path)
+    prm = record["parameters"]
+    # the gas lattice cell holds the largest particle: no overlaps at insertion
+    assert min(prm["a_x"], prm["a_y"], prm["a_z"]) >= 3.0
+    assert prm["jiggle"] < 0.5 * (min(prm["a_x"], prm["a_y"], prm["a_z"]) - 3.0)

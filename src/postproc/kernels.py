@@ -295,7 +295,7 @@ class Gaussian:
             return self._assign_x(points, coordinates.transverse_area(box))
         if coordinates.kind == "rz":
             return self._assign_rz(points)
-        raise NotImplementedError(f"Gaussian kernel not implemented for {coordinates.kind!r}")
+        raise ValueError(f"Gaussian kernel supports coordinates 'x' and 'rz', not {coordinates.kind!r}")
 
     def _assign_x(self, points, area: float) -> Assignment:
         w, c = self.width, self.cutoff

@@ -255,7 +255,7 @@ def test_corrupted_magic(serial_run, tmp_path):
     src = serial_run / "dump.bin"
     offsets = _frame_offsets(src)
     raw = bytearray(src.read_bytes())
-    raw[offsets[2] + 8 : offsets[2] + 18] = b"XXXXXXXXXX"
+    raw[offsets[2] + 8 : offsets[2] + 18] = b"NOTADUMP!!"
     bad = tmp_path / "magic.bin"
     bad.write_bytes(bytes(raw))
     with pytest.raises(DumpError) as err:

@@ -210,8 +210,19 @@ def load_campaign(path: str | Path, overrides: Iterable[str] = (), root: Path | 
     under ``scenes.<name>.scene``.
     """
     data = apply_overrides(load_yaml(path), overrides)
-    validate(data, "config", source=str(path))
     root = Path(root) if root else Path(path).resolve().parent.parent
+    return validate_campaign(data, root, source=str(path))
+
+
+def validate_campaign(data: dict, root: Path, source: str = "config") -> dict:
+    """Validate a campaign dict (e.g. Snakemake's ``config``) and load its scene files.
+
+    Scene file paths are relative to ``root``. Returns a copy with each enabled
+    scene's validated content under ``scenes.<name>.scene``.
+    """
+    data = copy.deepcopy(data)
+    path = source
+    validate(data, "config", source=source)
     for name, sc in data.get("scenes", {}).items():
         if not sc.get("enabled", True):
             continue

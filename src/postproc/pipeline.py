@@ -19,8 +19,9 @@ from .dump import read_dump
 from .fields import profile_from_frames
 from .frame import ParticleFrame
 
-#: profile columns that carry one power of mass
-MASS_FIELDS = ("rho", "T", "sigma_", "sigmac_", "sigmak_")
+#: profile columns (and prefixes of columns) that carry one power of mass
+MASS_COLUMNS = ("rho", "T")
+MASS_PREFIXES = ("sigma_", "sigmac_", "sigmak_")
 
 
 def to_paper_units(profile: pd.DataFrame, density: float) -> pd.DataFrame:
@@ -28,7 +29,7 @@ def to_paper_units(profile: pd.DataFrame, density: float) -> pd.DataFrame:
     out = profile.copy()
     for col in out.columns:
         base = col[:-3] if col.endswith("_se") else col
-        if base == "rho" or base == "T" or base.startswith(("sigma_", "sigmac_", "sigmak_")):
+        if base in MASS_COLUMNS or base.startswith(MASS_PREFIXES):
             out[col] = out[col] / density
     return out
 

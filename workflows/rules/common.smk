@@ -6,21 +6,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(workflow.basedir) / "src"))
 
-from granflow.config import ConfigError, load_campaign  # noqa: E402
+from granflow.config import ConfigError, validate_campaign  # noqa: E402
 
 try:
-    CAMPAIGN = load_campaign(Path(workflow.basedir) / "config" / "config.yaml",
-                             root=Path(workflow.basedir)) if not config else None
-    if config:
-        import json as _json, tempfile as _tempfile, yaml as _yaml
-        # validate the config Snakemake actually uses (file plus any --config overrides)
-        with _tempfile.NamedTemporaryFile("w", suffix=".yaml", delete=False,
-                                          dir=Path(workflow.basedir) / "config") as _f:
-            _yaml.safe_dump(_json.loads(_json.dumps(config)), _f)
-        try:
-            CAMPAIGN = load_campaign(_f.name, root=Path(workflow.basedir))
-        finally:
-            Path(_f.name).unlink()
+    # the config Snakemake actually uses: the file plus any --configfile/--config overrides
+    CAMPAIGN = validate_campaign(dict(config), root=Path(workflow.basedir), source="config")
 except ConfigError as exc:
     raise WorkflowError(f"invalid configuration, nothing was run:\n{exc}")
 

@@ -14,8 +14,10 @@ configfile: os.path.join(workflow.basedir, "config", "config.yaml")
 
 include: "workflows/rules/common.smk"
 include: "workflows/rules/channel.smk"
+include: "workflows/rules/heap.smk"
 
 
 rule all:
     input:
         channel_targets(),
+        heap_targets(),

@@ -26,3 +26,10 @@ def channel_scene():
     from granflow.config import load_scene
 
     return load_scene(ROOT / "config" / "scenes" / "channel.yaml")
+
+
+@pytest.fixture(scope="session")
+def heap_scene():
+    from granflow.config import load_scene
+
+    return load_scene(ROOT / "config" / "scenes" / "heap.yaml")

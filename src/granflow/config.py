@@ -20,7 +20,7 @@ import yaml
 #: Root of the project (``src/granflow/config.py`` -> project root).
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 SCHEMA_DIR = PROJECT_ROOT / "config" / "schema"
-SCENES = ("channel",)
+SCENES = ("channel", "heap")
 RUNGS = ("smoke", "demo", "study", "paper")
 
 
@@ -170,12 +170,7 @@ def _check(cond: bool, msg: str) -> None:
         raise ConfigError(msg)
 
 
-def validate_scene(scene: dict, source: str = "scene") -> dict:
-    """Schema plus cross-field checks of a scene file; returns it unchanged."""
-    name = scene.get("scene")
-    if name not in SCENES:
-        raise ConfigError(f"{source}: scene = {name!r} is not allowed: allowed one of {', '.join(map(repr, SCENES))}")
-    validate(scene, name, source)
+def _check_channel(scene: dict, source: str) -> None:
     p = scene["particles"]
     _check(len(p["diameters"]) == len(p["number_fractions"]),
            f"{source}: particles.number_fractions has {len(p['number_fractions'])} entries, "
@@ -190,10 +185,38 @@ def validate_scene(scene: dict, source: str = "scene") -> dict:
                f"2*wall_bin_width + bin_width = {2 * r['wall_bin_width'] + r['bin_width']}")
         _check(r["t_segment"] <= r["t_flow_max"],
                f"{source}: rungs.{name}.t_segment = {r['t_segment']}: allowed <= t_flow_max = {r['t_flow_max']}")
+
+
+def _check_heap(scene: dict, source: str) -> None:
+    for name, mix in scene["particles"]["mixtures"].items():
+        d, f = mix["diameters"], mix["volume_fractions"]
+        _check(len(d) == len(f), f"{source}: particles.mixtures.{name}.volume_fractions has {len(f)} entries, "
+                                 f"diameters has {len(d)}: allowed only equal lengths")
+        _check(math.isclose(sum(f), 1.0, abs_tol=1e-6),
+               f"{source}: particles.mixtures.{name}.volume_fractions sum to {sum(f):g}: allowed sum = 1")
+        _check(list(d) == sorted(d), f"{source}: particles.mixtures.{name}.diameters = {d}: "
+                                     f"allowed only increasing (species 1 is the small one)")
+    mix = scene["case"]["mixture"]
+    _check(mix in scene["particles"]["mixtures"],
+           f"{source}: case.mixture = {mix!r} is not allowed: allowed one of "
+           f"{', '.join(map(repr, scene['particles']['mixtures']))}")
+    for name, r in scene["rungs"].items():
+        _check(r["feed_width"] < r["W"], f"{source}: rungs.{name}.feed_width = {r['feed_width']}: "
+                                         f"allowed < W = {r['W']}")
+
+
+def validate_scene(scene: dict, source: str = "scene") -> dict:
+    """Schema plus cross-field checks of a scene file; returns it unchanged."""
+    name = scene.get("scene")
+    if name not in SCENES:
+        raise ConfigError(f"{source}: scene = {name!r} is not allowed: allowed one of {', '.join(map(repr, SCENES))}")
+    validate(scene, name, source)
+    {"channel": _check_channel, "heap": _check_heap}[name](scene, source)
+    for rname, r in scene["rungs"].items():
         _check(r["dump_interval"] <= r["t_average"],
-               f"{source}: rungs.{name}.dump_interval = {r['dump_interval']}: allowed <= t_average = {r['t_average']}")
+               f"{source}: rungs.{rname}.dump_interval = {r['dump_interval']}: allowed <= t_average = {r['t_average']}")
         _check(r["thermo_interval"] <= r["t_segment"],
-               f"{source}: rungs.{name}.thermo_interval = {r['thermo_interval']}: allowed <= t_segment = {r['t_segment']}")
+               f"{source}: rungs.{rname}.thermo_interval = {r['thermo_interval']}: allowed <= t_segment = {r['t_segment']}")
     return scene
 
 
@@ -233,18 +256,43 @@ def validate_campaign(data: dict, root: Path, source: str = "config") -> dict:
         rung = data["rung"]
         _check(rung in scene["rungs"],
                f"{path}: rung = {rung!r} is not defined in {scene_path}: allowed {', '.join(scene['rungs'])}")
-        # every sweep point must pass the scene's own case bounds
-        for W in sc["sweep"].get("W", [None]):
-            for phi in sc["sweep"].get("phi_mean", [scene["case"]["phi_mean"]]):
-                case = dict(scene["case"], phi_mean=phi, W=W)
-                validate(dict(scene, case=case), scene["scene"], source=f"{path} (sweep point W={W}, phi_mean={phi})")
-                rW = W if W is not None else scene["rungs"][rung]["W"]
-                r = scene["rungs"][rung]
-                _check(2 * r["wall_bin_width"] + r["bin_width"] <= rW,
-                       f"{path}: scenes.{name}.sweep.W = {rW} leaves no interior bin: allowed W >= "
-                       f"{2 * r['wall_bin_width'] + r['bin_width']}")
+        if name == "channel":
+            _check_channel_sweep(sc, scene, rung, path)
+        elif name == "heap":
+            _check_heap_sweep(sc, scene, rung, path)
         sc["scene"] = scene
     return data
+
+
+def _check_channel_sweep(sc: dict, scene: dict, rung: str, path: str) -> None:
+    """Every channel sweep point must pass the scene's own case bounds."""
+    for W in sc["sweep"].get("W", [None]):
+        for phi in sc["sweep"].get("phi_mean", [scene["case"]["phi_mean"]]):
+            case = dict(scene["case"], phi_mean=phi, W=W)
+            validate(dict(scene, case=case), scene["scene"], source=f"{path} (sweep point W={W}, phi_mean={phi})")
+            rW = W if W is not None else scene["rungs"][rung]["W"]
+            r = scene["rungs"][rung]
+            _check(2 * r["wall_bin_width"] + r["bin_width"] <= rW,
+                   f"{path}: scenes.channel.sweep.W = {rW} leaves no interior bin: allowed W >= "
+                   f"{2 * r['wall_bin_width'] + r['bin_width']}")
+
+
+def _check_heap_sweep(sc: dict, scene: dict, rung: str, path: str) -> None:
+    """Every heap sweep point: a known mixture, and a feed rate the feed zone can deliver."""
+    from .heap import feed_plan  # deferred: the deck package imports this module
+    from .preflight import PreflightError
+
+    for mix in sc["sweep"].get("mixture", [scene["case"]["mixture"]]):
+        _check(mix in scene["particles"]["mixtures"],
+               f"{path}: scenes.heap.sweep.mixture = {mix!r} is not allowed: allowed one of "
+               f"{', '.join(map(repr, scene['particles']['mixtures']))}")
+        for rate in sc["sweep"].get("feed_rate", [scene["case"]["feed_rate"]]):
+            case = dict(scene["case"], feed_rate=rate, mixture=mix)
+            try:
+                feed_plan(scene, rung, case)
+            except PreflightError as exc:
+                raise ConfigError(f"{path}: scenes.heap.sweep.feed_rate = {rate} (mixture {mix}, rung {rung}) "
+                                  f"is not allowed: {exc}") from None
 
 
 def check_rung(scene: dict, rung: str, source: str = "--rung") -> dict:

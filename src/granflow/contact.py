@@ -94,6 +94,18 @@ def contact_time(k_n: float, m_eff: float, xi_n: float) -> tuple[float, float]:
     return t_c, math.exp(-xi_n * t_c / 2.0)
 
 
+def _contacts(diameters, masses, k_n: float, xi_n: float, walls: bool) -> list[Contact]:
+    """Every pair of the given particle sizes, and each size against a wall."""
+    out = []
+    for i, (di, mi) in enumerate(zip(diameters, masses)):
+        for dj, mj in list(zip(diameters, masses))[i:]:
+            m_eff = mi * mj / (mi + mj)
+            out.append(Contact(f"{di:g}-{dj:g} pair", m_eff, *contact_time(k_n, m_eff, xi_n)))
+        if walls:
+            out.append(Contact(f"{di:g}-wall", mi, *contact_time(k_n, mi, xi_n)))
+    return out
+
+
 def build_contact_model(scene: dict, rung: dict) -> ContactModel:
     """Contact parameters of a scene at a rung (see module docstring)."""
     p, c = scene["particles"], scene["contact"]
@@ -101,14 +113,7 @@ def build_contact_model(scene: dict, rung: dict) -> ContactModel:
     k_n = float(rung["k_n"])
     m_ref = sphere_mass(1.0, p["density"]) / 2.0
     xi_n = damping_for_restitution(k_n, m_ref, c["e_n"])
-    contacts = []
     masses = [sphere_mass(d, p["density"]) for d in diameters]
-    for i, (di, mi) in enumerate(zip(diameters, masses)):
-        for dj, mj in list(zip(diameters, masses))[i:]:
-            m_eff = mi * mj / (mi + mj)
-            contacts.append(Contact(f"{di:g}-{dj:g} pair", m_eff, *contact_time(k_n, m_eff, xi_n)))
-        if scene["effects"].get("walls"):
-            contacts.append(Contact(f"{di:g}-wall", mi, *contact_time(k_n, mi, xi_n)))
     return ContactModel(
         k_n=k_n,
         k_t=c["kt_over_kn"] * k_n,
@@ -116,5 +121,39 @@ def build_contact_model(scene: dict, rung: dict) -> ContactModel:
         xi_t=c["xi_t_over_xi_n"] * xi_n,
         friction=c["friction"],
         wall_friction=c["wall_friction"],
-        contacts=contacts,
+        contacts=_contacts(diameters, masses, k_n, xi_n, bool(scene["effects"].get("walls"))),
+    )
+
+
+def contact_model_for_time(contact: dict, density: float, t_c: float, d_ref: float,
+                           diameters: list[float], walls: bool = True) -> ContactModel:
+    r"""One linear spring-dashpot for all pairs, set by the contact time of a reference pair.
+
+    The heap paper fixes the collision time :math:`t_c` and restitution :math:`e`
+    instead of the stiffness. For the pair of two spheres of diameter ``d_ref``
+    (reduced mass :math:`m_{ref}`) this gives
+
+    .. math::
+
+        \xi_n = -\frac{2 \ln e}{t_c}, \qquad
+        k_n = m_{ref}\left(\frac{\pi^2}{t_c^2} + \frac{\xi_n^2}{4}\right),
+
+    where :math:`\xi_n` is LAMMPS's damping rate (force :math:`m_{eff}\xi_n v_n`),
+    twice the paper's :math:`\gamma_n` (force :math:`2\gamma_n m_{eff} v_n`). With one
+    :math:`k_n` for all pairs (``gran/hooke/history``) every other pair and each
+    particle-wall contact has its own :math:`t_c` and :math:`e`; they are listed
+    for ``diameters`` (pass the extremes of the size distribution).
+    """
+    m_ref = sphere_mass(d_ref, density) / 2.0
+    xi_n = -2.0 * math.log(contact["e_n"]) / t_c
+    k_n = m_ref * (math.pi**2 / t_c**2 + xi_n**2 / 4.0)
+    masses = [sphere_mass(d, density) for d in diameters]
+    return ContactModel(
+        k_n=k_n,
+        k_t=contact["kt_over_kn"] * k_n,
+        xi_n=xi_n,
+        xi_t=contact["xi_t_over_xi_n"] * xi_n,
+        friction=contact["friction"],
+        wall_friction=contact["wall_friction"],
+        contacts=_contacts(diameters, masses, k_n, xi_n, walls),
     )

@@ -209,12 +209,21 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
     return params, {**context, "record": record}
 
 
+def scene_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tuple[list[Param], dict]:
+    """Deck numbers and template context of any scene."""
+    if scene["scene"] == "heap":
+        from .heap import heap_parameters  # the heap module builds on this one
+
+        return heap_parameters(scene, rung_name, case)
+    return channel_parameters(scene, rung_name, case)
+
+
 def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | None = None) -> dict:
     """Write ``init.lmp``, ``flow.lmp``, ``average.lmp`` and ``params.json`` into ``outdir``.
 
     Returns the parameter record (also written to ``params.json``).
     """
-    params, context = channel_parameters(scene, rung_name, case)
+    params, context = scene_parameters(scene, rung_name, case)
     record = context.pop("record")
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
@@ -227,4 +236,4 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     return record
 
 
-__all__ = ["render_case", "channel_parameters", "PreflightError", "STAGES"]
+__all__ = ["render_case", "scene_parameters", "channel_parameters", "PreflightError", "STAGES"]

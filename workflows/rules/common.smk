@@ -48,3 +48,18 @@ def simulate_threads(wildcards):
     Override with `--set-threads channel_simulate=N`.
     """
     return 1 if RUNG in ("smoke", "demo") else workflow.cores
+
+
+def heap_cases():
+    """(mixture, feed rate in g/s) wildcard strings of every heap sweep point."""
+    sc = CAMPAIGN["scenes"].get("heap")
+    if not sc or not sc.get("enabled", True):
+        return []
+    scene = sc["scene"]
+    mixes = sc["sweep"].get("mixture") or [scene["case"]["mixture"]]
+    rates = sc["sweep"].get("feed_rate") or [scene["case"]["feed_rate"]]
+    return [(mix, fmt(1000.0 * rate)) for mix, rate in product(mixes, rates)]
+
+
+def heap_case_dir(mix, mdot):
+    return f"{RESULTS}/heap/{RUNG}/mix~{mix}/mdot~{mdot}"

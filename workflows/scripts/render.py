@@ -1,13 +1,15 @@
-"""Adapter: render one channel case's decks and parameter record."""
+"""Adapter: render one case's decks and parameter record (channel or heap)."""
 import json
 import sys
 
 sys.stderr = open(snakemake.log[0], "w")
 from granflow.deck import render_case  # noqa: E402
 
-W, phi = float(snakemake.wildcards.W), float(snakemake.wildcards.phi)
 scene = json.loads(snakemake.params.scene)
-record = render_case(scene, snakemake.params.rung, snakemake.output.params.rsplit("/", 1)[0],
-                     {"W": W, "phi_mean": phi})
-print(f"rendered W={W:g} phi={phi:g}: {record['parameters']['n_particles']} particles, dt={record['dt']:.4g}",
-      file=sys.stderr)
+w = snakemake.wildcards
+if scene["scene"] == "heap":
+    case = {"mixture": w.mix, "feed_rate": float(w.mdot) / 1000.0}  # directory names carry g/s
+else:
+    case = {"W": float(w.W), "phi_mean": float(w.phi)}
+record = render_case(scene, snakemake.params.rung, snakemake.output.params.rsplit("/", 1)[0], case)
+print(f"rendered {scene['scene']} {case}: dt = {record['dt']:.4g}", file=sys.stderr)

@@ -1,0 +1,275 @@
+"""Physical parameters of the bounded-heap scene (Fan et al. 2013), in SI units.
+
+The heap is quasi-2D: a box of horizontal length ``W`` (feed-side wall at
+x = 0, end wall at x = W), gap ``T`` between flat frictional side walls, and a
+granular base inclined at :math:`\\theta` that descends from x = 0 to x = W,
+
+.. math::
+
+    z_{base}(x) = (W - x) \\tan\\theta .
+
+Particles are poured (LAMMPS ``fix pour``) into a feed region above the
+feed zone ``0 < x < feed_width`` at the requested mass rate; particles that
+touch the base are immobilised (``fix freeze``, velocities zeroed) once per
+``freeze_interval``. Only the steady filling stage is simulated.
+
+Everything here is computed once in Python and reaches the deck as numbers.
+"""
+from __future__ import annotations
+
+import math
+
+from .config import check_rung
+from .contact import ContactModel, contact_model_for_time
+from .deck import Param, _number, time_step
+from .preflight import PreflightError, check_time_step, neighbor_settings
+
+#: gravitational acceleration, m/s^2
+G = 9.81
+
+
+def species(scene: dict, mixture: str) -> list[dict]:
+    """Per-species size distribution of a mixture.
+
+    Each species is uniform in diameter on :math:`[d(1-\\sqrt3 s), d(1+\\sqrt3 s)]`,
+    which has standard deviation :math:`s d` (``size_spread`` = s). Returns, per
+    species: type, mean diameter, range, volume fraction, mean particle volume
+    :math:`\\langle \\pi d^3/6 \\rangle` and mean mass.
+    """
+    p = scene["particles"]
+    mix = p["mixtures"][mixture]
+    s = p["size_spread"] if scene["effects"]["polydisperse"] else 0.0
+    out = []
+    for i, (d, f) in enumerate(zip(mix["diameters"], mix["volume_fractions"])):
+        lo, hi = d * (1 - math.sqrt(3) * s), d * (1 + math.sqrt(3) * s)
+        # <d^3> of a uniform distribution on [lo, hi]
+        d3 = (hi**4 - lo**4) / (4 * (hi - lo)) if hi > lo else d**3
+        v = math.pi / 6 * d3
+        out.append({"type": i + 1, "d": d, "d_lo": lo, "d_hi": hi, "volume_fraction": f,
+                    "mean_volume": v, "mean_mass": p["density"] * v})
+    return out
+
+
+def contact_model(scene: dict, rung: dict, sp: list[dict]) -> ContactModel:
+    """One k_n for all pairs, set by t_c of two particles of the smallest species' mean diameter.
+
+    Contacts are listed for the smallest and largest particle of every species,
+    so the shortest contact of the case (the smallest particles' pair) limits dt.
+    """
+    sizes = sorted({round(x, 12) for s in sp for x in (s["d_lo"], s["d"], s["d_hi"])})
+    return contact_model_for_time(scene["contact"], scene["particles"]["density"], rung["t_c"],
+                                  d_ref=sp[0]["d"], diameters=sizes, walls=True)
+
+
+def _geometry(scene: dict, rung: dict, sp: list[dict]) -> dict:
+    theta = math.radians(scene["geometry"]["theta_deg"])
+    W, T = rung["W"], rung["T"]
+    r_max = max(s["d_hi"] for s in sp) / 2
+    z_base0 = W * math.tan(theta)
+    feed_lo = z_base0 + rung["feed_drop"]
+    feed_hi = feed_lo + rung["feed_height"]
+    region = {"x_lo": r_max, "x_hi": rung["feed_width"] - r_max,
+              "y_lo": r_max, "y_hi": T - r_max, "z_lo": feed_lo, "z_hi": feed_hi}
+    if region["x_hi"] - region["x_lo"] <= 0 or region["y_hi"] - region["y_lo"] <= 0:
+        raise PreflightError(
+            f"feed region is empty: feed_width = {rung['feed_width']:g} m and T = {T:g} m must exceed "
+            f"the largest diameter {2 * r_max:.4g} m; a value that passes: T >= {4 * r_max:.3g}")
+    return {"theta": theta, "W": W, "T": T, "r_max": r_max, "z_base0": z_base0, "region": region,
+            "z_top": feed_hi + 2 * r_max, "z_bottom": -2 * r_max}
+
+
+def _rung_and_model(scene: dict, rung_name: str, case: dict):
+    rung = check_rung(scene, rung_name)
+    sp = species(scene, case["mixture"])
+    model = contact_model(scene, rung, sp)
+    dt = time_step(rung, model)
+    check_time_step(dt, model, scene["contact"]["dt_max_fraction"])
+    return rung, sp, model, dt
+
+
+def feed_plan(scene: dict, rung_name: str, case: dict) -> dict:
+    """How ``fix pour`` delivers the requested mass rate, or a refusal.
+
+    ``fix pour`` inserts ``nper`` particles every ``nfreq`` steps, where ``nfreq``
+    is the free-fall time through the region of height h, :math:`\\sqrt{2h/g}/dt`
+    (rounded), and ``nper = floor(vol V_region / V_max)`` with ``V_max`` the
+    volume of the largest particle. Each species pours its share of the mass
+    rate (mixtures are equal volumes). The delivered rate is
+
+    .. math::
+
+        \\dot m = \\frac{\\sum_i n_{per,i} \\langle m_i \\rangle}{n_{freq}\\, dt},
+
+    and the fill of the region, :math:`\\sum_i n_{per,i}\\langle V_i\\rangle/V_{region}`,
+    may not exceed ``protocol.feed_max_fraction`` (random insertion fails beyond it).
+
+    Raises
+    ------
+    PreflightError
+        If the feed region cannot deliver the rate; the message gives the largest
+        feasible rate, or if rounding ``nper`` misses the rate by more than half
+        of ``protocol.feed_rate_tol``.
+    """
+    rung, sp, model, dt = _rung_and_model(scene, rung_name, case)
+    geo = _geometry(scene, rung, sp)
+    reg = geo["region"]
+    proto = scene["protocol"]
+    h = reg["z_hi"] - reg["z_lo"]
+    v_region = (reg["x_hi"] - reg["x_lo"]) * (reg["y_hi"] - reg["y_lo"]) * h
+    nfreq = int(math.sqrt(2 * h / G) / dt + 0.5)
+    period = nfreq * dt
+    rho = scene["particles"]["density"]
+    rate = case["feed_rate"]
+    rate_max = proto["feed_max_fraction"] * v_region * rho / period
+    if rate > rate_max:
+        raise PreflightError(
+            f"feed rate {rate:g} kg/s is more than the feed region can deliver: the region "
+            f"({reg['x_hi'] - reg['x_lo']:.4g} x {reg['y_hi'] - reg['y_lo']:.4g} x {h:.4g} m, filled every "
+            f"{period:.4g} s) holds at most a volume fraction {proto['feed_max_fraction']:g}; "
+            f"largest feasible rate {rate_max:.4g} kg/s (or raise the rung's feed_width / feed_height)")
+    pours = []
+    for s in sp:
+        target = s["volume_fraction"] * rate * period / s["mean_mass"]
+        nper = max(1, int(round(target)))
+        v_max = math.pi / 6 * s["d_hi"] ** 3
+        vol = (nper + 0.5) * v_max / v_region  # LAMMPS: nper = floor(vol V_region / V_max)
+        pours.append({"type": s["type"], "nper": nper, "vol": vol, "d_lo": s["d_lo"], "d_hi": s["d_hi"],
+                      "rate": nper * s["mean_mass"] / period})
+    planned = sum(p["rate"] for p in pours)
+    if abs(planned / rate - 1) > 0.5 * proto["feed_rate_tol"]:
+        raise PreflightError(
+            f"feed rate {rate:g} kg/s cannot be resolved: whole particles per insertion give "
+            f"{planned:.4g} kg/s ({', '.join(str(p['nper']) for p in pours)} per {period:.4g} s), "
+            f"off by {100 * (planned / rate - 1):.1f} %, limit {50 * proto['feed_rate_tol']:g} %; "
+            f"raise the rung's feed_height or feed_width")
+    fill = sum(p["nper"] * s["mean_volume"] for p, s in zip(pours, sp)) / v_region
+    return {"nfreq": nfreq, "period": period, "pours": pours, "rate_planned": planned, "rate_max": rate_max,
+            "region": reg, "fill_fraction": fill, "dt": dt}
+
+
+def steady_time_estimate(scene: dict, rung: dict, case: dict, sp: list[dict], geo: dict) -> float:
+    """Time until the deposit is ``steady_depth`` largest diameters deep everywhere.
+
+    The fall from the feed region, then the mass of the wedge between the base
+    (:math:`\\theta`) and a surface at the estimated dynamic angle, plus a layer
+    of ``steady_depth`` d_max over the whole length, at the bed volume fraction
+    ``phi_bed_estimate`` (paper: :math:`t_0 \\approx 10 d_l / v_r`).
+    """
+    proto = scene["protocol"]
+    rho, phi = scene["particles"]["density"], proto["phi_bed_estimate"]
+    W, T = rung["W"], rung["T"]
+    alpha = math.radians(max(proto["alpha_estimate_deg"], scene["geometry"]["theta_deg"]))
+    wedge = 0.5 * W**2 * (math.tan(alpha) - math.tan(geo["theta"])) * T
+    layer = W * T * rung["steady_depth"] * 2 * geo["r_max"] / math.cos(geo["theta"])
+    fall = math.sqrt(2 * (geo["region"]["z_hi"]) / G)
+    return fall + rho * phi * (wedge + layer) / case["feed_rate"]
+
+
+def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tuple[list[Param], dict]:
+    """All numbers of a heap deck, and the template context besides them."""
+    case = dict(scene["case"], **(case or {}))
+    rung, sp, model, dt = _rung_and_model(scene, rung_name, case)
+    geo = _geometry(scene, rung, sp)
+    plan = feed_plan(scene, rung_name, case)
+    eff, proto = scene["effects"], scene["protocol"]
+    d_min = min(s["d_lo"] for s in sp)
+    d_ref = sp[0]["d"]
+
+    v_max = 1.5 * math.sqrt(2 * G * (geo["z_top"] - geo["z_bottom"]))  # free fall over the box, with margin
+    skin = scene["contact"]["neighbor_skin"] * d_ref
+    neigh = neighbor_settings([s["d_lo"] for s in sp] + [s["d_hi"] for s in sp], skin, dt, v_max)
+
+    def steps(t: float) -> int:
+        return max(1, int(round(t / dt)))
+
+    nfreq = plan["nfreq"]
+    # segments are whole numbers of feed periods, so the pour keeps its cadence across restarts
+    n_segment = nfreq * max(1, int(round(rung["t_segment"] / (nfreq * dt))))
+    t_segment = n_segment * dt
+    t_steady = steady_time_estimate(scene, rung, case, sp, geo)
+    reg = plan["region"]
+    params = [
+        Param("W", rung["W"], "horizontal length: feed-side wall x = 0 to end wall x = W, m"),
+        Param("T", rung["T"], "gap between the side walls (y = 0, y = T), m"),
+        Param("theta", round(geo["theta"], 12), f"base inclination, rad ({scene['geometry']['theta_deg']:g} deg)"),
+        Param("sin_theta", round(math.sin(geo["theta"]), 12), "sin(theta): base normal (sin, 0, cos)"),
+        Param("cos_theta", round(math.cos(geo["theta"]), 12), "cos(theta)"),
+        Param("z_base0", round(geo["z_base0"], 9), "base height at x = 0: W tan(theta), m"),
+        Param("z_bottom", round(geo["z_bottom"], 9), "box bottom, m"),
+        Param("z_top", round(geo["z_top"], 9), "box top, above the feed region, m"),
+        Param("feed_xlo", round(reg["x_lo"], 9), "feed region, inset by the largest radius from the walls, m"),
+        Param("feed_xhi", round(reg["x_hi"], 9), "feed region x upper bound, m"),
+        Param("feed_ylo", round(reg["y_lo"], 9), "feed region y lower bound, m"),
+        Param("feed_yhi", round(reg["y_hi"], 9), "feed region y upper bound, m"),
+        Param("feed_zlo", round(reg["z_lo"], 9), "feed region bottom: z_base0 + feed_drop, m"),
+        Param("feed_zhi", round(reg["z_hi"], 9), "feed region top, m"),
+        Param("feed_rate", _number(case["feed_rate"]), "requested mass feed rate, kg/s"),
+        Param("feed_rate_planned", round(plan["rate_planned"], 9), "rate the pour delivers: sum nper <m> / (nfreq dt), kg/s"),
+        Param("feed_attempts", proto["feed_attempts"], "insertion attempts per particle"),
+        Param("density", scene["particles"]["density"], "material density, kg/m^3"),
+        Param("gravity", G, "gravitational acceleration, m/s^2"),
+        Param("seed", int(case["seed"]), "random seed of the feed (each segment adds its index)"),
+        Param("d_min", round(d_min, 12), "smallest diameter, m"),
+        Param("d_ref", d_ref, "reference diameter (smallest species' mean): its pair has contact time t_c, m"),
+        Param("k_n", round(model.k_n, 9), f"normal stiffness: t_c = {rung['t_c']:g} s, e = {scene['contact']['e_n']} for the d_ref pair, N/m"),
+        Param("k_t", round(model.k_t, 9), "tangential stiffness k_t = kt_over_kn k_n, N/m"),
+        Param("xi_n", round(model.xi_n, 9), "normal damping rate -2 ln(e)/t_c (force m_eff xi_n v_n), 1/s"),
+        Param("xi_t", round(model.xi_t, 9), "tangential damping rate, 1/s"),
+        Param("friction", model.friction, "particle-particle sliding friction"),
+        Param("wall_friction", model.wall_friction, "particle-wall sliding friction"),
+        Param("t_c_min", round(model.stiffest.t_c, 12), f"shortest contact time ({model.stiffest.name}), s"),
+        Param("dt", round(dt, 12), f"time step = {dt / model.stiffest.t_c:.4g} t_c_min, s"),
+        Param("skin", round(skin, 9), "neighbour skin, m"),
+        Param("neigh_one", neigh["neigh_one"], f"max neighbours per particle (size ratio {neigh['size_ratio']:.3g})"),
+        Param("neigh_page", neigh["neigh_page"], "neighbour page size"),
+        Param("max_overlap", scene["guards"]["max_overlap"], "halt: largest overlap / d_min above this"),
+        Param("max_speed", scene["guards"]["max_speed"], "halt: rms particle speed above this, m/s"),
+        Param("n_feed", nfreq, "steps between insertions (free fall through the feed region)"),
+        Param("n_segment", n_segment, "steps per segment (a whole number of insertion periods)"),
+        Param("n_thermo", steps(rung["thermo_interval"]), "steps between thermo samples"),
+        Param("n_dump", steps(rung["dump_interval"]), "steps between dumped frames"),
+        Param("n_freeze", steps(rung["freeze_interval"]), "steps between immobilising particles that touch the base"),
+        Param("n_balance", 20 * nfreq, "steps between load-balancing shifts along x"),
+    ]
+    for prm in params:
+        _number(prm.value)
+    pours = [{"type": p["type"], "nper": p["nper"], "vol": round(p["vol"], 12),
+              "d_lo": round(p["d_lo"], 12), "d_hi": round(p["d_hi"], 12),
+              # enough particles for one segment: insertions per segment (+1) x nper
+              "count": (n_segment // nfreq + 1) * p["nper"]} for p in plan["pours"]]
+    context = {
+        "scene": "heap",
+        "rung": rung_name,
+        "units_note": "si: metres, kilograms, seconds",
+        "effects": eff,
+        "ntypes": len(sp),
+        "pours": pours,
+        "dump_columns": list(eff["dump_columns"]),
+    }
+    n_particles_est = int(case["feed_rate"] * (t_steady + rung["t_average"]) / (
+        sum(s["volume_fraction"] * s["mean_mass"] for s in sp)))
+    record = {
+        "scene": "heap",
+        "rung": rung_name,
+        "case": case,
+        "rung_knobs": rung,
+        "schedule": "fixed",
+        "parameters": {prm.name: prm.value for prm in params},
+        "contacts": [{"name": c.name, "m_eff": c.m_eff, "t_c": c.t_c, "e_n": c.e_n} for c in model.contacts],
+        "species": sp,
+        "feed": {k: plan[k] for k in ("nfreq", "period", "rate_planned", "rate_max", "fill_fraction", "pours")},
+        "t_steady_estimate": t_steady,
+        "n_flow_segments": max(1, math.ceil(t_steady / t_segment - 1e-9)),
+        "n_average_segments": max(1, math.ceil(rung["t_average"] / t_segment - 1e-9)),
+        "n_particles_estimate": n_particles_est,
+        "dt": dt,
+        "t_segment": t_segment,
+        "dump_columns": context["dump_columns"],
+        "density": scene["particles"]["density"],
+        "geometry": {"W": rung["W"], "T": rung["T"], "theta_deg": scene["geometry"]["theta_deg"],
+                     "x_feed": rung["feed_width"], "z_base_end": 0.0},
+        "effects": eff,
+        "protocol": proto,
+        "guards": scene["guards"],
+    }
+    return params, {**context, "record": record}

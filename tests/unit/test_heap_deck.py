@@ -1,0 +1,112 @@
+"""Heap decks: feed-rate planning and refusals, effects -> exactly those commands, skiprun."""
+import copy
+import json
+import math
+import re
+import subprocess
+
+import pytest
+
+from granflow.config import ConfigError, load_campaign
+from granflow.deck import STAGES, render_case
+from granflow.heap import feed_plan, species
+from granflow.preflight import PreflightError
+
+#: a feed rate the smoke rung's small feed zone can deliver
+SMOKE_CASE = {"feed_rate": 0.003}
+
+
+def test_contact_time_and_restitution_of_reference_pair(heap_scene, tmp_path):
+    """k_n and xi_n reproduce the paper's t_c = 1 ms and e = 0.8 for two 1.5 mm particles."""
+    record = render_case(heap_scene, "demo", tmp_path)
+    ref = [c for c in record["contacts"] if c["name"] == "0.0015-0.0015 pair"][0]
+    assert ref["t_c"] == pytest.approx(1.0e-3, rel=1e-9)
+    assert ref["e_n"] == pytest.approx(0.8, rel=1e-9)
+    # the time step resolves the shortest contact (the smallest particles of the spread)
+    assert record["dt"] <= 0.1 * min(c["t_c"] for c in record["contacts"])
+
+
+def test_species_spread_is_uniform_with_the_requested_std(heap_scene):
+    (sp,) = species(heap_scene, "mono1.5")
+    # a uniform distribution on [lo, hi] has std (hi - lo)/sqrt(12)
+    assert (sp["d_hi"] - sp["d_lo"]) / math.sqrt(12) == pytest.approx(0.1 * 1.5e-3, rel=1e-12)
+
+
+def test_feed_plan_delivers_the_requested_rate(heap_scene):
+    plan = feed_plan(heap_scene, "demo", {**heap_scene["case"], "feed_rate": 0.033})
+    # whole particles per insertion: within half the allowed tolerance
+    assert plan["rate_planned"] == pytest.approx(0.033, rel=0.025)
+    assert plan["fill_fraction"] <= heap_scene["protocol"]["feed_max_fraction"]
+
+
+def test_bidisperse_feed_is_equal_volumes(heap_scene):
+    case = {**heap_scene["case"], "mixture": "bi1-2", "feed_rate": 0.02}
+    plan = feed_plan(heap_scene, "demo", case)
+    sp = species(heap_scene, "bi1-2")
+    vol = [p["nper"] * s["mean_volume"] for p, s in zip(plan["pours"], sp)]
+    # rounding to whole particles: 2.5 % of each share at most
+    assert vol[0] == pytest.approx(vol[1], rel=0.05)
+
+
+def test_infeasible_rate_is_refused_with_the_largest_feasible_rate(heap_scene):
+    with pytest.raises(PreflightError, match=r"largest feasible rate [0-9.]+ kg/s"):
+        feed_plan(heap_scene, "smoke", {**heap_scene["case"], "feed_rate": 0.5})
+
+
+def test_campaign_refuses_an_infeasible_sweep_point(root):
+    with pytest.raises(ConfigError, match=r"scenes.heap.sweep.feed_rate = 0.5 .*largest feasible rate"):
+        load_campaign(root / "config" / "config.yaml", ["scenes.heap.sweep.feed_rate=[0.5]"], root=root)
+    with pytest.raises(ConfigError, match=r"scenes.heap.sweep.mixture = 'nope' is not allowed"):
+        load_campaign(root / "config" / "config.yaml", ["scenes.heap.sweep.mixture=[nope]"], root=root)
+
+
+def test_effects_off_means_commands_absent(heap_scene, tmp_path):
+    scene = copy.deepcopy(heap_scene)
+    scene["effects"].update(freeze_base=False, walls=["base", "end", "sides"])
+    render_case(scene, "smoke", tmp_path, SMOKE_CASE)
+    flow = (tmp_path / "flow.lmp").read_text()
+    commands = [l for l in flow.splitlines() if l and not l.startswith(("#", "variable "))]
+    assert not [l for l in commands if "freeze" in l or "frozen" in l or " every " in l]
+    assert "xplane NULL ${W}" in flow
+    render_case(heap_scene, "smoke", tmp_path / "on", SMOKE_CASE)
+    on = (tmp_path / "on" / "flow.lmp").read_text()
+    assert "fix             freeze frozen freeze" in on and "xplane 0.0 ${W}" in on
+    # particle dumps only where the analysis reads them
+    assert "dump" not in on and re.search(r"^dump .*x y z vx vy vz", (tmp_path / "on" / "average.lmp").read_text(), re.M)
+
+
+def test_bidisperse_deck_pours_two_types(heap_scene, tmp_path):
+    render_case(heap_scene, "smoke", tmp_path, {"mixture": "bi1-2", "feed_rate": 0.002})
+    flow = (tmp_path / "flow.lmp").read_text()
+    assert "create_box      2 box" in (tmp_path / "init.lmp").read_text()
+    assert len(re.findall(r"^fix +pour\d all pour \d+ [12] ", flow, re.M)) == 2
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("rung", ["smoke", "demo", "study", "paper"])
+def test_every_rung_passes_skiprun(heap_scene, tmp_path, lmp, rung):
+    """Each stage parses and sets up in LAMMPS; fix pour plans exactly our nper and nfreq."""
+    record = render_case(heap_scene, rung, tmp_path, SMOKE_CASE if rung == "smoke" else None)
+    run = tmp_path / "run"
+    run.mkdir()
+    variables = {
+        "init": ["-var", "restart_out", "init.restart"],
+        "flow": ["-var", "restart_in", "init.restart", "-var", "restart_out", "flow.restart"],
+        "average": ["-var", "restart_in", "init.restart", "-var", "restart_out", "avg.restart",
+                    "-var", "dump_file", "dump.bin"],
+    }
+    for stage in STAGES:
+        # -skiprun would still loop over the freeze interval's short runs; one step is enough here
+        text = (tmp_path / f"{stage}.lmp").read_text().replace("run             ${n_segment}", "run 1")
+        (tmp_path / f"{stage}_1.lmp").write_text(text)
+        proc = subprocess.run([lmp, "-skiprun", "-in", str(tmp_path / f"{stage}_1.lmp"), "-log", "none",
+                               "-nocite", *variables[stage]], cwd=run, capture_output=True, text=True,
+                              timeout=300)
+        errors = [l for l in proc.stdout.splitlines() if l.startswith("ERROR")]
+        assert proc.returncode == 0 and not errors, f"{rung}/{stage}: {errors or proc.stdout[-2000:]}"
+        if stage == "flow":
+            m = re.search(r"Particle insertion: (\d+) every (\d+) steps", proc.stdout)
+            assert m, proc.stdout[-2000:]
+            # LAMMPS's own nper and nfreq are the ones the rate was planned with
+            assert int(m.group(2)) == record["parameters"]["n_feed"] == record["feed"]["nfreq"]
+            assert int(m.group(1)) == record["feed"]["pours"][0]["nper"]

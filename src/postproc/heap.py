@@ -1163,8 +1163,7 @@ def analyse_heap(profile: pd.DataFrame, fit: SurfaceFit, geometry: HeapGeometry,
         rows.append({"x": float(x), **_column_kinematics(group, n_types, d_ref)})
     per_x = pd.DataFrame(rows)
     if per_x.empty:
-        per_x = pd.DataFrame(columns=["x", "q", "u_s", "gamma_bar", "delta_exp", "delta_lin",
-                                      "delta_cut", "delta", "d_bar", "n_profile", "usable"])
+        per_x = pd.DataFrame(columns=["x", *_column_kinematics(profile.iloc[:0], n_types, d_ref)])
         notes.append("empty profile")
     per_x["usable"] = per_x["usable"].astype(bool)
     usable = per_x["usable"].to_numpy()

@@ -97,8 +97,10 @@ def _col(df: pd.DataFrame, name: str) -> np.ndarray:
 
 
 def _scalar(case: dict, key: str) -> float:
+    """``case["scalars"][key]`` as a float (dict or Series); NaN when absent."""
+    scalars = case.get("scalars")
     try:
-        return float((case.get("scalars") or {}).get(key, np.nan))
+        return float(np.nan if scalars is None else scalars.get(key, np.nan))
     except (TypeError, ValueError):
         return np.nan
 

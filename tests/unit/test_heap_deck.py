@@ -36,7 +36,7 @@ def test_feed_plan_delivers_the_requested_rate(heap_scene):
     plan = feed_plan(heap_scene, "demo", {**heap_scene["case"], "feed_rate": 0.033})
     # whole particles per insertion: within half the allowed tolerance
     assert plan["rate_planned"] == pytest.approx(0.033, rel=0.025)
-    assert plan["fill_fraction"] <= heap_scene["protocol"]["feed_max_fraction"]
+    assert plan["top_slab_fraction"] <= heap_scene["protocol"]["feed_max_fraction"]
 
 
 def test_bidisperse_feed_is_equal_volumes(heap_scene):

@@ -53,6 +53,11 @@ GUARDS = {
 }
 
 
+#: what LAMMPS's "Lost atoms" means in a walled granular box
+LOST_ATOMS = ("lost atoms: a particle left the box through a wall, pushed beyond its own radius "
+              "(contacts too soft for the impact speeds; a shorter t_c or a lower drop would hold it)")
+
+
 def dangerous_builds(log_text: str) -> int:
     """Sum of LAMMPS's ``Dangerous builds = N`` lines in a log."""
     return sum(int(l.split("=")[1]) for l in log_text.splitlines() if l.startswith("Dangerous builds ="))
@@ -196,6 +201,8 @@ class CaseRunner:
             for fix_id, meaning in GUARDS.items():
                 if bad and f"fix-id {fix_id} " in bad:
                     raise UnstableRun(message, f"{meaning}, in segment {name}: {bad}")
+            if bad and bad.startswith("ERROR: Lost atoms"):
+                raise UnstableRun(message, f"{LOST_ATOMS}, in segment {name}: {bad}")
             raise RunError(message)
         perf = performance(text)
         log(f"{name}: {time.time() - t0:.1f} s" + (f", {max(perf):.2f} Matom-step/s" if perf else ""))

@@ -35,10 +35,13 @@ def heap_scene_json(wildcards):
     return json.dumps(CAMPAIGN["scenes"]["heap"]["scene"], sort_keys=True)
 
 
-def heap_all(name):
-    def inputs(wildcards):
-        return [f"{heap_case_dir(mix, mdot)}/analysis/{name}" for mix, mdot in heap_cases()]
-    return inputs
+def heap_all_scalars(wildcards):
+    return [f"{heap_case_dir(mix, mdot)}/analysis/scalars.json" for mix, mdot in heap_cases()]
+
+
+def heap_all_tables(wildcards):
+    """Every case's analysis tables, grouped by table name (name-major, then case)."""
+    return [f"{heap_case_dir(mix, mdot)}/analysis/{name}.csv" for name in HEAP_TABLES for mix, mdot in heap_cases()]
 
 
 rule heap_render:
@@ -84,7 +87,7 @@ rule heap_analyse:
 
 rule heap_table:
     input:
-        scalars=heap_all("scalars.json"),
+        scalars=heap_all_scalars,
     output:
         table=report(HEAP + "/table.csv", caption="../report/heap_table.rst", category="heap"),
     log:
@@ -95,8 +98,8 @@ rule heap_table:
 
 rule heap_figure:
     input:
-        scalars=heap_all("scalars.json"),
-        tables=[heap_all(f"{name}.csv") for name in HEAP_TABLES],
+        scalars=heap_all_scalars,
+        tables=heap_all_tables,
     output:
         figure=report(HEAP + "/figures/{figure}.png", caption="../report/heap_figure.rst", category="heap"),
     wildcard_constraints:

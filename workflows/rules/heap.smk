@@ -64,7 +64,7 @@ rule heap_simulate:
     output:
         status=HEAP_CASE + "/run/status.json",
         thermo=HEAP_CASE + "/run/thermo.csv",
-    threads: simulate_threads
+    threads: heap_simulate_threads
     log:
         HEAP_CASE + "/logs/simulate.log",
     script:

@@ -569,17 +569,22 @@ class MovingFrame:
         \\mathbf e_x = (\\cos\\alpha, 0, -\\sin\\alpha) \\;\\text{(downhill)}, \\qquad
         \\mathbf e_z = (\\sin\\alpha, 0, \\cos\\alpha) \\;\\text{(out of the heap)},
 
-    and velocities relative to the frame, which moves at :math:`v_r\\hat{\\mathbf z}`:
+    and velocities relative to the surface, which moves normal to itself at
+    :math:`v_r' = v_r\\cos\\alpha` (paper, section 3.1: "the z-component of the
+    rise velocity in this coordinate system is :math:`v_r'`"):
 
     .. math::
 
         x = (\\mathbf r - \\mathbf P)\\cdot\\mathbf e_x, \\quad
         z = (\\mathbf r - \\mathbf P)\\cdot\\mathbf e_z, \\quad
-        u = (\\mathbf v - v_r\\hat{\\mathbf z})\\cdot\\mathbf e_x, \\quad
-        w = (\\mathbf v - v_r\\hat{\\mathbf z})\\cdot\\mathbf e_z .
+        u = \\mathbf v\\cdot\\mathbf e_x, \\quad
+        w = \\mathbf v\\cdot\\mathbf e_z - v_r' .
 
-    The static bed therefore moves at :math:`w = -v_r' = -v_r\\cos\\alpha` and
-    :math:`u = v_r\\sin\\alpha` in this frame.
+    The static bed is then at rest along the flow (:math:`u = 0`) and moves at
+    :math:`w = -v_r'`, the boundary value of eqs. 3.5/3.6. (Subtracting the
+    vertical rise :math:`v_r\\hat{\\mathbf z}` instead would give the bed a spurious
+    streamwise drift :math:`v_r\\sin\\alpha`, which inflates q and hides the
+    cutoff depth where :math:`u_s` is small.)
 
     Parameters
     ----------
@@ -632,9 +637,9 @@ class MovingFrame:
         velocity = np.asarray(velocity, dtype=float).reshape(-1, 3)
         x0, z0 = self.origin(t)
         rx, rz = position[:, 0] - x0, position[:, 2] - z0
-        vx, vz = velocity[:, 0], velocity[:, 2] - self.v_r
+        vx, vz = velocity[:, 0], velocity[:, 2]
         c, s = np.cos(self.alpha), np.sin(self.alpha)
-        return rx * c - rz * s, rx * s + rz * c, vx * c - vz * s, vx * s + vz * c
+        return rx * c - rz * s, rx * s + rz * c, vx * c - vz * s, vx * s + vz * c - self.v_r_normal
 
     def to_lab(self, x, z, t):
         """Moving-frame :math:`(x, z)` at time ``t`` back to lab :math:`(x_{lab}, z_{lab})`."""
@@ -1092,9 +1097,8 @@ def analyse_heap(profile: pd.DataFrame, fit: SurfaceFit, geometry: HeapGeometry,
 
     * :math:`q(x) = \\int_{z_{wall}}^0 u\\,dz`, the 2D flow rate, by the
       midpoint rule over the bins below the surface (NaN bins count as no
-      flow). In the moving frame the static bed drifts at
-      :math:`u = v_r\\sin\\alpha`, so a deep profile adds
-      :math:`v_r\\sin\\alpha` times its depth below the layer;
+      flow). The static bed is at rest along the flow (:class:`MovingFrame`),
+      so bins below the layer add nothing but noise;
     * :math:`u_s` (:func:`surface_velocity`);
     * :math:`\\delta` by the exponential fit (``delta_exp``), the linear
       extrapolation (``delta_lin``) and the :math:`0.1 u_s` cutoff

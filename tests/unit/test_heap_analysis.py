@@ -195,15 +195,16 @@ def test_moving_frame_origin_axes_and_velocities():
         pos = np.array([[GEOMETRY.x_feed, 0.006, z_feed],          # origin
                         [GEOMETRY.W, 0.006, z_end],                # surface at the end wall
                         [GEOMETRY.x_feed + 0.01 * np.sin(a), 0.0, z_feed + 0.01 * np.cos(a)]])  # 1 cm along e_z
-        vel = np.array([[0.0, 0.0, V_R],                            # moving with the surface
+        v_n = frame.v_r_normal
+        vel = np.array([[v_n * np.sin(a), 0.0, v_n * np.cos(a)],    # moving with the surface, normal to it
                         [0.0, 0.3, 0.0],                            # at rest (y velocity is ignored)
-                        [0.2 * np.cos(a), 0.0, -0.2 * np.sin(a) + V_R]])  # 0.2 m/s downhill, riding the rise
+                        [0.2 * np.cos(a) + v_n * np.sin(a), 0.0, -0.2 * np.sin(a) + v_n * np.cos(a)]])  # 0.2 m/s downhill, riding the rise
         x, z, u, w = frame.transform(pos, vel, t)
         # lengths of order 0.5 m: round-off ~1e-16 * 0.5
         assert_allclose(x, [0.0, frame.L, 0.0], rtol=0, atol=1e-12)
         assert_allclose(z, [0.0, 0.0, 0.01], rtol=0, atol=1e-12)
-        # the static bed moves at u = v_r sin(a), w = -v_r' in the rising frame
-        assert_allclose(u, [0.0, V_R * np.sin(a), 0.2], rtol=0, atol=1e-15)
+        # relative to the surface the static bed is at rest along the flow and sinks at v_r'
+        assert_allclose(u, [0.0, 0.0, 0.2], rtol=0, atol=1e-15)
         assert_allclose(w, [0.0, -frame.v_r_normal, 0.0], rtol=0, atol=1e-15)
         back = frame.to_lab(x, z, t)
         assert_allclose(np.column_stack(back), pos[:, [0, 2]], rtol=0, atol=1e-12)

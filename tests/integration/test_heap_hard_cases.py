@@ -1,0 +1,60 @@
+"""The heap rows of the hard-case matrix, at smoke size: size ratio 3 at the highest feed
+rate the feed zone delivers, and the paper's stiffer check (t_c = 0.1 ms). Each runs clean
+or ends with a named status; an unsafe step is refused before LAMMPS starts."""
+import copy
+import json
+
+import pytest
+
+from granflow.deck import render_case
+from granflow.heap import feed_plan
+from granflow.preflight import PreflightError
+from granflow.runner import run_case
+
+pytestmark = pytest.mark.lammps
+
+
+def short(scene, **knobs):
+    """A copy of the scene whose smoke rung is shortened for the hard-case tests."""
+    s = copy.deepcopy(scene)
+    s["rungs"]["smoke"].update(knobs)
+    return s
+
+
+def run(scene, tmp_path, case, nprocs=2):
+    render_case(scene, "smoke", tmp_path, case)
+    status = run_case(tmp_path, nprocs)
+    print(json.dumps({k: status[k] for k in ("status", "reason", "max_overlap", "dangerous_builds")}))
+    return status
+
+
+def test_size_ratio_3_at_the_highest_feed_rate(heap_scene, tmp_path):
+    """1/3 mm mix at 95 % of the largest rate the smoke feed zone delivers: clean, or a named stop."""
+    scene = short(heap_scene, steady_depth=1.0, t_segment=0.15, t_average=0.15, dump_interval=0.05)
+    case = {"mixture": "bi1-3", "feed_rate": 0.001}
+    top = 0.95 * feed_plan(scene, "smoke", dict(scene["case"], **case))["rate_max"]
+    status = run(scene, tmp_path, {**case, "feed_rate": round(top, 5)})
+    assert status["dangerous_builds"] == 0
+    if status["status"] == "unstable":  # a stop must say why
+        assert "lost atoms" in status["reason"] or "overlap" in status["reason"], status["reason"]
+        assert (tmp_path / "run" / "logs").exists()
+    else:
+        assert status["status"] == "completed"
+        assert status["max_overlap"] < scene["guards"]["max_overlap"]
+
+
+def test_paper_stiffness_check_runs_clean(heap_scene, tmp_path):
+    """t_c = 0.1 ms (the paper's check), step 0.05 t_c_min: small overlaps, nothing lost."""
+    scene = short(heap_scene, t_c=1.0e-4, steady_depth=0.5, t_segment=0.05, t_average=0.05,
+                  dump_interval=0.025, thermo_interval=0.005)
+    status = run(scene, tmp_path, {"mixture": "mono1.5", "feed_rate": 0.003})
+    assert status["status"] == "completed", status["reason"]
+    assert status["dangerous_builds"] == 0
+    # 10x shorter contacts: overlaps ~10x smaller than the ~0.3 d of t_c = 1 ms
+    assert status["max_overlap"] < 0.1
+
+
+def test_stiff_contacts_with_a_soft_step_are_refused(heap_scene):
+    scene = short(heap_scene, t_c=1.0e-4, dt=2.0e-5)
+    with pytest.raises(PreflightError, match="too large"):
+        render_case(scene, "smoke", "/nonexistent/never-written", {"feed_rate": 0.003})

@@ -95,7 +95,7 @@ def _rung_and_model(scene: dict, rung_name: str, case: dict):
 
 
 def feed_plan(scene: dict, rung_name: str, case: dict) -> dict:
-    """How ``fix pour`` delivers the requested mass rate, or a refusal.
+    r"""How ``fix pour`` delivers the requested mass rate, or a refusal.
 
     Particles enter the feed region with downward speed ``feed_speed`` (v0).
     ``fix pour`` inserts ``nper`` particles every ``nfreq`` steps, ``nfreq`` the

@@ -76,7 +76,7 @@ def test_effects_off_means_commands_absent(heap_scene, tmp_path):
 
 
 def test_bidisperse_deck_pours_two_types(heap_scene, tmp_path):
-    render_case(heap_scene, "smoke", tmp_path, {"mixture": "bi1-2", "feed_rate": 0.002})
+    render_case(heap_scene, "demo", tmp_path, {"mixture": "bi1-2", "feed_rate": 0.02})
     flow = (tmp_path / "flow.lmp").read_text()
     assert "create_box      2 box" in (tmp_path / "init.lmp").read_text()
     assert len(re.findall(r"^fix +pour\d all pour \d+ [12] ", flow, re.M)) == 2

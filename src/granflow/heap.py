@@ -280,7 +280,9 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         "feed": {k: plan[k] for k in ("nfreq", "period", "rate_planned", "rate_max", "top_slab_fraction", "pours", "feed_speed")},
         "t_steady_estimate": t_steady,
         "n_flow_segments": max(1, math.ceil(t_steady / t_segment - 1e-9)),
-        "n_average_segments": max(1, math.ceil(rung["t_average"] / t_segment - 1e-9)),
+        # whole segments nearest to t_average (segments are whole feed periods, so
+        # t_segment is only close to the rung's value)
+        "n_average_segments": max(1, round(rung["t_average"] / t_segment)),
         "n_particles_estimate": n_particles_est,
         "dt": dt,
         "t_segment": t_segment,

@@ -33,3 +33,33 @@ def heap_scene():
     from granflow.config import load_scene
 
     return load_scene(ROOT / "config" / "scenes" / "heap.yaml")
+
+
+@pytest.fixture
+def smoke_variant():
+    """A copy of a scene whose smoke rung has some knobs changed (hard-case tests)."""
+    import copy
+
+    def make(scene, **knobs):
+        s = copy.deepcopy(scene)
+        s["rungs"]["smoke"].update(knobs)
+        return s
+
+    return make
+
+
+@pytest.fixture
+def run_smoke():
+    """Render a case at the smoke rung into a directory and run it; prints the status line."""
+    import json
+
+    from granflow.deck import render_case
+    from granflow.runner import run_case
+
+    def run(scene, tmp_path, case, nprocs=1):
+        render_case(scene, "smoke", tmp_path, case)
+        status = run_case(tmp_path, nprocs)
+        print(json.dumps({k: status[k] for k in ("status", "reason", "max_overlap", "dangerous_builds")}))
+        return status
+
+    return run

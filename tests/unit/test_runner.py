@@ -4,7 +4,7 @@ import shutil
 
 import pandas as pd
 
-from granflow.runner import CaseRunner, error_line, parse_thermo, performance
+from granflow.runner import CaseRunner, error_line, loop_cost, parse_thermo, performance
 
 
 def test_parse_thermo_and_performance(root):
@@ -13,6 +13,14 @@ def test_parse_thermo_and_performance(root):
     assert list(th["Step"]) == [0, 2, 4]
     assert th["f_fwavg"].iloc[-1] == 0.5
     assert performance(log.read_text()) == [0.171]
+    # "Loop time of 0.01 on 1 procs for 4 steps with 428 atoms": wall seconds and atom-steps
+    assert loop_cost(log.read_text()) == (0.01, 4 * 428)
+
+
+def test_loop_cost_sums_the_short_runs_of_run_every():
+    text = ("Loop time of 0.5 on 2 procs for 50 steps with 100 atoms\n"
+            "Loop time of 0.25 on 2 procs for 50 steps with 120 atoms\n")
+    assert loop_cost(text) == (0.75, 50 * 100 + 50 * 120)
 
 
 def test_error_line_quotes_lammps_error_not_echoed_commands(root):

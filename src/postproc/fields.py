@@ -237,7 +237,30 @@ class _BlockedSums:
         return means
 
 
-class FieldAccumulator:
+class ConcludedResult:
+    """The read side of the prepare / accumulate / conclude lifecycle.
+
+    Subclasses set ``_result`` in ``conclude()`` and keep their per-frame sums in
+    ``_sums`` (a :class:`_BlockedSums`, or None before ``prepare()``).
+    """
+
+    _result: pd.DataFrame | None = None
+    _sums: "_BlockedSums | None" = None
+
+    @property
+    def result(self) -> pd.DataFrame:
+        """The table returned by ``conclude()``."""
+        if self._result is None:
+            raise RuntimeError(f"{type(self).__name__}.result read before conclude()")
+        return self._result
+
+    @property
+    def n_frames(self) -> int:
+        """Frames accumulated since ``prepare()``."""
+        return 0 if self._sums is None else self._sums.n_frames
+
+
+class FieldAccumulator(ConcludedResult):
     """Time-averaged coarse-grained fields with block standard errors.
 
     Parameters
@@ -358,18 +381,6 @@ class FieldAccumulator:
         return self._result
 
     # results -------------------------------------------------------------------
-
-    @property
-    def result(self) -> pd.DataFrame:
-        """The table returned by :meth:`conclude`."""
-        if self._result is None:
-            raise RuntimeError("FieldAccumulator.result read before conclude()")
-        return self._result
-
-    @property
-    def n_frames(self) -> int:
-        """Frames accumulated since :meth:`prepare`."""
-        return 0 if self._sums is None else self._sums.n_frames
 
     @property
     def fields(self) -> tuple[str, ...]:

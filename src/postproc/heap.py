@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import curve_fit
 
-from .fields import _SUBBLOCKS_PER_BLOCK, _BlockedSums
+from .fields import _SUBBLOCKS_PER_BLOCK, ConcludedResult, _BlockedSums
 from .frame import ParticleFrame
 
 #: Volume-fraction cutoff of the free surface, :math:`f_c` (paper, section 3.1).
@@ -649,7 +649,7 @@ class MovingFrame:
 
 
 # --------------------------------------------------------------------------- kinematics
-class KinematicsAccumulator:
+class KinematicsAccumulator(ConcludedResult):
     """Volume-weighted, time-averaged kinematics in (x, z) bins of the moving frame.
 
     Following the paper (section 3.2.1), particle :math:`j` contributes to bin
@@ -811,17 +811,6 @@ class KinematicsAccumulator:
         self._result = pd.DataFrame(columns)
         return self._result
 
-    @property
-    def result(self) -> pd.DataFrame:
-        """The table returned by :meth:`conclude`."""
-        if self._result is None:
-            raise RuntimeError("KinematicsAccumulator.result read before conclude()")
-        return self._result
-
-    @property
-    def n_frames(self) -> int:
-        """Frames accumulated since :meth:`prepare`."""
-        return 0 if self._sums is None else self._sums.n_frames
 
 
 def accumulate_frame(accumulator: KinematicsAccumulator, frame: ParticleFrame, moving: MovingFrame,
@@ -1089,6 +1078,19 @@ def _column_kinematics(group: pd.DataFrame, n_types: int, d_ref: float) -> dict:
     return row
 
 
+def mass_balance(fit: SurfaceFit, geometry: HeapGeometry, *, density: float, feed_rate: float,
+                 phi_bed: float) -> dict:
+    """Rise velocity predicted by mass conservation, and the measured one's residual.
+
+    .. math::
+
+        v_{r,pred} = \\frac{\\dot m}{\\rho\\,\\phi_{bed}\\,T\\,W_h}, \\qquad W_h = W .
+    """
+    v_pred = feed_rate / (density * phi_bed * geometry.T * geometry.W)
+    return {"v_r_predicted": float(v_pred), "mass_balance_residual": float(fit.v_r / v_pred - 1.0),
+            "phi_bed": float(phi_bed)}
+
+
 def analyse_heap(profile: pd.DataFrame, fit: SurfaceFit, geometry: HeapGeometry, *, density: float,
                  feed_rate: float, phi_bed: float, d_ref: float, g: float = 9.81, n_types: int = 1):
     """Streamwise kinematics and scalings of the bounded heap (paper, sections 3.2-3.3).
@@ -1196,12 +1198,11 @@ def analyse_heap(profile: pd.DataFrame, fit: SurfaceFit, geometry: HeapGeometry,
     far = usable & (xl >= Q_STAR_MIN_X_OVER_L)
     with np.errstate(divide="ignore", invalid="ignore"):
         power = fit_power_law(per_x["q_star"].to_numpy(float)[far], delta[far] / d_bar[far])
-    v_pred = feed_rate / (density * phi_bed * geometry.T * geometry.W)
     scalars = {
         "alpha_deg": fit.alpha_deg, "alpha_se": fit.alpha_se, "v_r": fit.v_r, "v_r_se": fit.v_r_se,
         "v_r_normal": float(v_rn), "surface_z0": fit.z0,
-        "v_r_predicted": float(v_pred), "mass_balance_residual": float(fit.v_r / v_pred - 1.0),
-        "L": float(L), "phi_bed": float(phi_bed),
+        **mass_balance(fit, geometry, density=density, feed_rate=feed_rate, phi_bed=phi_bed),
+        "L": float(L),
         "delta_mean": delta_mean, "delta_over_d": delta_mean / d_ref,
         "delta_exp_mean": _nanmean(per_x["delta_exp"].to_numpy(float)[window]),
         "delta_lin_mean": _nanmean(per_x["delta_lin"].to_numpy(float)[window]),

@@ -182,10 +182,11 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8) -> tuple[dict, dict]:
     profile = acc.conclude()
 
     rate, rate_se = feed_rate_measured(thermo)
-    # the static bed: from 1.5 flowing-layer thicknesses below the surface down to 2 d above the base
-    _, first = hp.analyse_heap(profile, fit, geometry, density=record["density"], feed_rate=rate,
-                                    phi_bed=1.0, d_ref=d_bar, n_types=len(species))
-    delta = first.get("delta_mean", np.nan)
+    per_x, scalars = hp.analyse_heap(profile, fit, geometry, density=record["density"], feed_rate=rate,
+                                     phi_bed=float("nan"), d_ref=d_bar, n_types=len(species))
+    # the static bed, from 1.5 flowing-layer thicknesses below the surface down to 2 d
+    # above the base, gives phi_bed and with it the mass balance
+    delta = scalars.get("delta_mean", np.nan)
     depth_lo = 1.5 * delta if np.isfinite(delta) else 6 * d_bar
     downstream = x_lab > geometry.x_feed + dx
     beds = []
@@ -193,9 +194,8 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8) -> tuple[dict, dict]:
         bed = hp.bed_volume_fraction(phi, z_edges, zs, depth_lo, depth_lo + 20 * d_bar,
                                      z_base=geometry.z_base(x_edges[:-1]), clearance=2 * d_bar)[downstream]
         beds.extend(bed[np.isfinite(bed)])
-    phi_bed_mean = float(np.mean(beds)) if beds else float("nan")
-    per_x, scalars = hp.analyse_heap(profile, fit, geometry, density=record["density"], feed_rate=rate,
-                                     phi_bed=phi_bed_mean, d_ref=d_bar, n_types=len(species))
+    phi_bed = float(np.mean(beds)) if beds else float("nan")
+    scalars.update(hp.mass_balance(fit, geometry, density=record["density"], feed_rate=rate, phi_bed=phi_bed))
     collapsed = hp.collapse(profile, per_x, moving.v_r_normal)
     if len(species) == 2 and np.isfinite(scalars.get("delta_mean", np.nan)):
         deposit = hp.deposit_concentration(last.position, last.radius, last.type, fit, geometry,

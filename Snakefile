@@ -15,9 +15,11 @@ configfile: os.path.join(workflow.basedir, "config", "config.yaml")
 include: "workflows/rules/common.smk"
 include: "workflows/rules/channel.smk"
 include: "workflows/rules/heap.smk"
+include: "workflows/rules/silo.smk"
 
 
 rule all:
     input:
         channel_targets(),
         heap_targets(),
+        silo_targets(),

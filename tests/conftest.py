@@ -35,6 +35,13 @@ def heap_scene():
     return load_scene(ROOT / "config" / "scenes" / "heap.yaml")
 
 
+@pytest.fixture(scope="session")
+def silo_scene():
+    from granflow.config import load_scene
+
+    return load_scene(ROOT / "config" / "scenes" / "silo.yaml")
+
+
 @pytest.fixture
 def smoke_variant():
     """A copy of a scene whose smoke rung has some knobs changed (hard-case tests)."""

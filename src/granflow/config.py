@@ -20,7 +20,7 @@ import yaml
 #: Root of the project (``src/granflow/config.py`` -> project root).
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 SCHEMA_DIR = PROJECT_ROOT / "config" / "schema"
-SCENES = ("channel", "heap")
+SCENES = ("channel", "heap", "silo")
 RUNGS = ("smoke", "demo", "study", "paper")
 
 
@@ -205,13 +205,23 @@ def _check_heap(scene: dict, source: str) -> None:
                                          f"allowed < W = {r['W']}")
 
 
+def _check_silo(scene: dict, source: str) -> None:
+    f = scene["particles"]["radius_fractions"]
+    _check(list(f) == sorted(f) and len(set(f)) == len(f),
+           f"{source}: particles.radius_fractions = {f}: allowed only strictly increasing (type 1 is the smallest)")
+    _check(set(scene["effects"]["walls"]) == {"side", "floor"},
+           f"{source}: effects.walls = {scene['effects']['walls']}: allowed [side, floor] (the silo needs both)")
+    _check(not scene["effects"]["reinsert"] or scene["effects"]["deletion"],
+           f"{source}: effects.reinsert = true needs effects.deletion = true: allowed reinsert only with deletion")
+
+
 def validate_scene(scene: dict, source: str = "scene") -> dict:
     """Schema plus cross-field checks of a scene file; returns it unchanged."""
     name = scene.get("scene")
     if name not in SCENES:
         raise ConfigError(f"{source}: scene = {name!r} is not allowed: allowed one of {', '.join(map(repr, SCENES))}")
     validate(scene, name, source)
-    {"channel": _check_channel, "heap": _check_heap}[name](scene, source)
+    {"channel": _check_channel, "heap": _check_heap, "silo": _check_silo}[name](scene, source)
     for rname, r in scene["rungs"].items():
         _check(r["dump_interval"] <= r["t_average"],
                f"{source}: rungs.{rname}.dump_interval = {r['dump_interval']}: allowed <= t_average = {r['t_average']}")
@@ -260,6 +270,8 @@ def validate_campaign(data: dict, root: Path, source: str = "config") -> dict:
             _check_channel_sweep(sc, scene, rung, path)
         elif name == "heap":
             _check_heap_sweep(sc, scene, rung, path)
+        elif name == "silo":
+            _check_silo_sweep(sc, scene, rung, path)
         sc["scene"] = scene
     return data
 
@@ -293,6 +305,14 @@ def _check_heap_sweep(sc: dict, scene: dict, rung: str, path: str) -> None:
             except PreflightError as exc:
                 raise ConfigError(f"{path}: scenes.heap.sweep.feed_rate = {rate} (mixture {mix}, rung {rung}) "
                                   f"is not allowed: {exc}") from None
+
+
+def _check_silo_sweep(sc: dict, scene: dict, rung: str, path: str) -> None:
+    """Every orifice radius of the sweep must fit the rung's silo."""
+    R_c = scene["rungs"][rung]["R_c"]
+    for R in sc["sweep"].get("R", [scene["case"]["R"]]):
+        _check(R <= R_c - 2, f"{path}: scenes.silo.sweep.R = {R} (in r_b) does not fit the {rung} silo of "
+                             f"R_c = {R_c} r_b: allowed 1 <= R <= R_c - 2 = {R_c - 2}")
 
 
 def check_rung(scene: dict, rung: str, source: str = "--rung") -> dict:

@@ -215,21 +215,33 @@ def scene_parameters(scene: dict, rung_name: str, case: dict | None = None) -> t
         from .heap import heap_parameters  # the heap module builds on this one
 
         return heap_parameters(scene, rung_name, case)
+    if scene["scene"] == "silo":
+        from .silo import silo_parameters
+
+        return silo_parameters(scene, rung_name, case)
     return channel_parameters(scene, rung_name, case)
 
 
 def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | None = None) -> dict:
-    """Write ``init.lmp``, ``flow.lmp``, ``average.lmp`` and ``params.json`` into ``outdir``.
+    """Write one deck per stage (``init.lmp``, ``flow.lmp``, ``average.lmp``; the silo
+    has no separate flow stage), any data files, and ``params.json`` into ``outdir``.
 
     Returns the parameter record (also written to ``params.json``).
     """
     params, context = scene_parameters(scene, rung_name, case)
     record = context.pop("record")
+    stages = context.pop("stages", STAGES)
+    data_files = context.pop("data_files", {})
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
+    if data_files:
+        from .silo import write_gas_data
+
+        for name, args in data_files.items():
+            write_gas_data(outdir / name, *args)
     env = environment()
     template = env.get_template(f"{context['scene']}.lmp.j2")
-    for stage in STAGES:
+    for stage in stages:
         text = template.render(params=params, stage=stage, **context)
         (outdir / f"{stage}.lmp").write_text(text)
     (outdir / "params.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n")

@@ -283,17 +283,33 @@ class CaseRunner:
                 if steady.status in ("steady", "jammed"):
                     break
             if steady.status in ("steady", "completed") or proto.get("average_unsteady"):
-                n_avg = rec["n_average_segments"]
-                for j in range(1, n_avg + 1):
-                    restart = self._segment("average.lmp", f"average_{j:03d}", restart,
-                                            {"dump_file": f"dump_{j:03d}.bin"})
-                    log(f"average {j}/{n_avg} done")
+                n_planned = rec["n_average_segments"]
+                for n_avg in range(1, n_planned + 1):
+                    restart = self._segment("average.lmp", f"average_{n_avg:03d}", restart,
+                                            {"dump_file": f"dump_{n_avg:03d}.bin",
+                                             "contacts_file": f"contacts_{n_avg:03d}.dump"})
+                    log(f"average {n_avg}/{n_planned} done")
+                    verdict = self._early_stop(n_avg)
+                    if verdict:
+                        steady = ScheduleDone(*verdict)
+                        log(f"stopped after segment {n_avg}: {verdict[0]}: {verdict[1]}")
+                        break
             else:
                 log(f"not averaged: {steady.status} is not a steady flow (protocol.average_unsteady is false)")
         except UnstableRun as exc:
             unstable = exc.reason
             log(f"stopped by a guard: {exc.reason}")
         return self._conclude(steady, k, n_avg, unstable)
+
+    def _early_stop(self, j: int) -> tuple[str, str] | None:
+        """A scene's named reason to end its schedule after segment ``j`` (the silo: clogged, emptied)."""
+        if self.record.get("scene") != "silo":
+            return None
+        from .silo import discharge_verdict
+
+        th = self.thermo("average", upto=j)
+        return discharge_verdict(th[th["segment"] == f"average_{j:03d}"] if not th.empty else None,
+                                 self.record)
 
     def _conclude(self, steady, k: int, n_avg: int, unstable: str | None) -> dict:
         rec = self.record
@@ -320,6 +336,8 @@ class CaseRunner:
             "flow_segments": k,
             "average_segments": n_avg,
             "dumps": [f"dump_{j:03d}.bin" for j in range(1, n_avg + 1)],
+            "contact_dumps": [f"contacts_{j:03d}.dump" for j in range(1, n_avg + 1)
+                              if (self.run_dir / f"contacts_{j:03d}.dump").exists()],
             "dangerous_builds": n_dangerous,
             "max_overlap": max_overlap,
             "overlap_below_report_limit": bool(max_overlap < rec["guards"]["report_overlap"]),

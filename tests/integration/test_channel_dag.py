@@ -27,6 +27,8 @@ def smoke_campaign(tmp_path_factory, root):
         "rung: smoke\n"
         f"results_dir: {results}\n"
         "scenes:\n"
+        "  silo:\n"
+        "    enabled: false\n"
         "  heap:\n"
         "    enabled: false\n"
         "  channel:\n"

@@ -83,7 +83,7 @@ def test_snakemake_marks_nothing_complete_after_a_failure(tmp_path, root):
     scene = (root / "config" / "scenes" / "channel.yaml").read_text()
     (tmp_path / "channel.yaml").write_text(scene.replace("average_unsteady: false", "average_unsteady: true"))
     cfg = tmp_path / "config.yaml"
-    cfg.write_text(f"rung: smoke\nresults_dir: {results}\nscenes:\n  heap:\n    enabled: false\n  channel:\n    enabled: true\n"
+    cfg.write_text(f"rung: smoke\nresults_dir: {results}\nscenes:\n  heap:\n    enabled: false\n  silo:\n    enabled: false\n  channel:\n    enabled: true\n"
                    f"    scene_file: {tmp_path / 'channel.yaml'}\n    sweep:\n      W: [10]\n      phi_mean: [0.58]\n")
     case = results / "channel" / "smoke" / "W~10" / "phi~0.58"
     base = [str(BIN / "snakemake"), "--snakefile", str(root / "Snakefile"), "--directory", str(tmp_path),

@@ -24,6 +24,8 @@ def heap_campaign(tmp_path_factory, root):
         "rung: smoke\n"
         f"results_dir: {results}\n"
         "scenes:\n"
+        "  silo:\n"
+        "    enabled: false\n"
         "  channel:\n"
         "    enabled: false\n"
         "  heap:\n"

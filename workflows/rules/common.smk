@@ -72,3 +72,29 @@ def heap_cases():
 
 def heap_case_dir(mix, mdot):
     return f"{RESULTS}/heap/{RUNG}/mix~{mix}/mdot~{mdot}"
+
+
+def silo_simulate_threads(wildcards):
+    """MPI ranks per silo run: 1 for smoke and demo (several orifice sizes run side by side), all cores above."""
+    return 1 if RUNG in ("smoke", "demo") else workflow.cores
+
+
+def silo_cases():
+    """Orifice radius (in r_b) wildcard strings of every silo sweep point."""
+    sc = CAMPAIGN["scenes"].get("silo")
+    if not sc or not sc.get("enabled", True):
+        return []
+    scene = sc["scene"]
+    return [fmt(R) for R in (sc["sweep"].get("R") or [scene["case"]["R"]])]
+
+
+def silo_case_dir(R):
+    return f"{RESULTS}/silo/{RUNG}/R~{R}"
+
+
+def silo_w_scan():
+    """Kernel widths (in r_b) of the kinetic-pressure scan, as directory-name strings."""
+    sc = CAMPAIGN["scenes"].get("silo")
+    if not sc or not sc.get("enabled", True):
+        return []
+    return [fmt(w) for w in sc["scene"]["cg"]["w_scan"]]

@@ -1,4 +1,4 @@
-"""Adapter: render one case's decks and parameter record (channel or heap)."""
+"""Adapter: render one case's decks and parameter record (channel, heap or silo)."""
 import json
 import sys
 
@@ -7,7 +7,9 @@ from granflow.deck import render_case  # noqa: E402
 
 scene = json.loads(snakemake.params.scene)
 w = snakemake.wildcards
-if scene["scene"] == "heap":
+if scene["scene"] == "silo":
+    case = {"R": float(w.R)}  # orifice radius in r_b
+elif scene["scene"] == "heap":
     case = {"mixture": w.mix, "feed_rate": float(w.mdot) / 1000.0}  # directory names carry g/s
 else:
     case = {"W": float(w.W), "phi_mean": float(w.phi)}

@@ -247,7 +247,12 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("neigh_page", neigh["neigh_page"], "neighbour page size"),
         Param("max_overlap", scene["guards"]["max_overlap"], "halt: largest overlap / d_min above this"),
         Param("max_speed", scene["guards"]["max_speed"], "halt: rms particle speed above this, m/s"),
-        Param("n_settle", thermo_multiple(proto["t_settle"]), "steps of settling with the orifice closed"),
+        Param("n_settle_min", thermo_multiple(proto["t_settle_min"]), "shortest settling with the orifice closed, steps"),
+        Param("n_settle", thermo_multiple(max(proto["t_settle_max"], proto["t_settle_min"])),
+              "longest settling with the orifice closed, steps"),
+        Param("ke_settled", round(proto["settle_ke_ratio"] * gas["n"] * float(np.mean([s["mass"] for s in sp]))
+                                  * g * H, 9),
+              f"settled below this kinetic energy: {proto['settle_ke_ratio']:g} M g H, J"),
         Param("n_segment", n_segment, "steps per discharge segment"),
         Param("n_thermo", n_thermo, "steps between thermo samples"),
         Param("n_dump", n_dump, "steps between dumped particle frames"),

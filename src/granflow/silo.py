@@ -312,7 +312,7 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
 def discharge_verdict(segment_thermo, record: dict) -> tuple[str, str] | None:
     """Stop the discharge early, with a named reason, or None to go on.
 
-    ``clogged``: the segment's outflow (deleted mass over its duration) is below
+    ``clogged``: after the first segment (the start-up), the segment's outflow (deleted mass over its duration) is below
     ``protocol.clog_rate_fraction`` of the Beverloo estimate (an arch blocks the
     orifice). ``completed``: the fill height (mass over :math:`\\rho\\phi\\pi R_c^2`)
     fell below ``protocol.empty_height`` x R; the discharge is no longer steady.
@@ -320,6 +320,8 @@ def discharge_verdict(segment_thermo, record: dict) -> tuple[str, str] | None:
     th = segment_thermo
     if th is None or len(th) < 2 or "v_mdel" not in th:
         return None
+    if float(th["Time"].iloc[0]) <= 0.0:
+        return None  # the first segment includes the start-up: the flow has not reached the orifice yet
     proto = record["protocol"]
     duration = float(th["Time"].iloc[-1] - th["Time"].iloc[0])
     outflow = float(th["v_mdel"].iloc[-1] - th["v_mdel"].iloc[0])

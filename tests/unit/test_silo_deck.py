@@ -120,10 +120,12 @@ def test_every_rung_passes_skiprun(silo_scene, tmp_path, lmp, rung):
 
 def test_discharge_verdict_names_a_clog_and_an_empty_silo(silo_scene, tmp_path):
     record = render_case(silo_scene, "demo", tmp_path, {"R": 5.5})
-    t = np.linspace(0, 0.2, 41)
+    t = np.linspace(0.2, 0.4, 41)
     full = record["n_particles"] * np.mean([s["mass"] for s in record["species"]])
     flowing = pd.DataFrame({"Time": t, "v_mdel": 50.0 * t, "v_mtot": full - 50.0 * t})
     assert discharge_verdict(flowing, record) is None
+    # the first segment (from the opening) is the start-up: never called a clog
+    assert discharge_verdict(flowing.assign(Time=t - 0.2, v_mdel=0.0), record) is None
     clogged = flowing.assign(v_mdel=0.01 * t)
     status, reason = discharge_verdict(clogged, record)
     assert status == "clogged" and "arch" in reason

@@ -213,7 +213,7 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
     n_dump = steps(rung["dump_interval"])
     t_segment = n_segment * dt
     H = rung["fill_height"] * r_b
-    ins_lo, ins_hi = H + 1.5 * r_b, min(H + 6 * r_b, z_top - 1.1 * r_b)
+    ins_lo, ins_hi = H + 1.5 * r_b, min(H + 16 * r_b, z_top - 1.1 * r_b)
     params = [
         Param("r_b", r_b, "largest radius, m"),
         Param("R", round(R, 12), f"orifice radius ({case['R']:g} r_b), m"),
@@ -227,6 +227,7 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("ins_lo", round(ins_lo, 12), "re-insertion slab bottom (fill height + 1.5 r_b), m"),
         Param("ins_hi", round(ins_hi, 12), "re-insertion slab top, m"),
         Param("ins_r", round(R_c - 1.1 * r_b, 12), "re-insertion slab radius, m"),
+        Param("insert_speed", 1.0, "downward speed given to the particles in the re-insertion slab, m/s"),
         Param("fill_height", round(H, 12), f"bed height at rest ({rung['fill_height']:g} r_b), m"),
         Param("n_particles", gas["n"], "particles in the gas (equal numbers of each size)"),
         Param("n_per_type", gas["counts"][0], "particles of each size"),

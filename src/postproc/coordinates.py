@@ -12,11 +12,17 @@ Every coordinate system offers
     ``"x"`` or ``"rz"``, which kernels dispatch on;
 ``names``
     coordinate names, used as node columns of result tables;
-``points(frame)``
-    particle coordinates, shape ``(N, len(names))``;
+``points(frame)``, ``map(positions)``
+    particle (or any point's) coordinates, shape ``(N, len(names))``;
 ``cell_volumes(edges, box)``
     volumes of the product cells between edges (one array per coordinate),
-    shape ``tuple(len(e) - 1 for e in edges)``.
+    shape ``tuple(len(e) - 1 for e in edges)``;
+``components``
+    names of the three vector components fields are expressed in
+    (``x y z``, or ``r t z`` for the cylindrical basis);
+``local_vectors(positions, vectors)``, ``local_tensors(positions, tensors)``
+    vectors ``(N, 3)`` and symmetric tensors ``(N, 6)``, in the order
+    xx yy zz xy xz yz, expressed in that basis at each position.
 """
 from __future__ import annotations
 
@@ -47,6 +53,7 @@ class XCoordinates:
 
     kind = "x"
     names = ("x",)
+    components = ("x", "y", "z")
 
     def __init__(self, walls: tuple[float, float] | None = None):
         if walls is not None:
@@ -57,7 +64,22 @@ class XCoordinates:
 
     def points(self, frame: ParticleFrame) -> np.ndarray:
         """Particle :math:`x`, shape (N, 1)."""
-        return np.asarray(frame.position, dtype=float)[:, :1]
+        return self.map(frame.position)
+
+    @staticmethod
+    def map(positions) -> np.ndarray:
+        """:math:`x` of positions ``(N, 3)``, shape (N, 1)."""
+        return np.asarray(positions, dtype=float).reshape(-1, 3)[:, :1]
+
+    @staticmethod
+    def local_vectors(positions, vectors) -> np.ndarray:
+        """Cartesian components unchanged (the basis is the lab frame everywhere)."""
+        return np.asarray(vectors, dtype=float)
+
+    @staticmethod
+    def local_tensors(positions, tensors) -> np.ndarray:
+        """Cartesian components unchanged."""
+        return np.asarray(tensors, dtype=float)
 
     @staticmethod
     def transverse_area(box) -> float:
@@ -87,6 +109,22 @@ class RZCoordinates:
 
     with radial edges below zero clipped to the axis.
 
+    Vectors and tensors are expressed in the cylindrical basis at each point's
+    own azimuth :math:`\\theta = \\operatorname{atan2}(y - y_0, x - x_0)`,
+
+    .. math::
+
+        \\mathbf e_r = (\\cos\\theta, \\sin\\theta, 0), \\quad
+        \\mathbf e_\\theta = (-\\sin\\theta, \\cos\\theta, 0), \\quad
+        \\mathbf e_z = (0, 0, 1),
+
+    components ``r t z`` (``t`` for :math:`\\theta`); on the axis itself
+    (:math:`r = 0`) :math:`\\theta = 0` is taken. A coarse-grained field then
+    averages each particle's components in its own basis: exact for the
+    :math:`z` components and for traces (pressures), and, since a kernel of
+    width :math:`w` mixes azimuths within :math:`\\sim w / r` of each other, accurate
+    to :math:`O(w/r)` for the other components near the axis.
+
     Parameters
     ----------
     axis_center : (float, float)
@@ -95,15 +133,55 @@ class RZCoordinates:
 
     kind = "rz"
     names = ("r", "z")
+    components = ("r", "t", "z")
 
     def __init__(self, axis_center: tuple[float, float] = (0.0, 0.0)):
         self.axis_center = (float(axis_center[0]), float(axis_center[1]))
 
     def points(self, frame: ParticleFrame) -> np.ndarray:
         """Particle :math:`(r, z)`, shape (N, 2)."""
-        pos = np.asarray(frame.position, dtype=float)
+        return self.map(frame.position)
+
+    def map(self, positions) -> np.ndarray:
+        """:math:`(r, z)` of positions ``(N, 3)``, shape (N, 2)."""
+        pos = np.asarray(positions, dtype=float).reshape(-1, 3)
         r = np.hypot(pos[:, 0] - self.axis_center[0], pos[:, 1] - self.axis_center[1])
         return np.column_stack([r, pos[:, 2]])
+
+    def azimuth(self, positions) -> tuple[np.ndarray, np.ndarray]:
+        """:math:`(\\cos\\theta, \\sin\\theta)` of positions ``(N, 3)``; (1, 0) on the axis."""
+        pos = np.asarray(positions, dtype=float).reshape(-1, 3)
+        dx, dy = pos[:, 0] - self.axis_center[0], pos[:, 1] - self.axis_center[1]
+        r = np.hypot(dx, dy)
+        on_axis = r == 0
+        r = np.where(on_axis, 1.0, r)
+        return np.where(on_axis, 1.0, dx / r), np.where(on_axis, 0.0, dy / r)
+
+    def local_vectors(self, positions, vectors) -> np.ndarray:
+        """Components :math:`(v_r, v_\\theta, v_z)`, shape (N, 3)."""
+        c, s = self.azimuth(positions)
+        v = np.asarray(vectors, dtype=float)
+        return np.column_stack([c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1], v[:, 2]])
+
+    def local_tensors(self, positions, tensors) -> np.ndarray:
+        """Symmetric tensors rotated to :math:`(r, \\theta, z)`: rr tt zz rt rz tz, shape (N, 6).
+
+        .. math::
+
+            T' = R\\, T R^{\\mathsf T}, \\qquad R = (\\mathbf e_r, \\mathbf e_\\theta, \\mathbf e_z)^{\\mathsf T}
+        """
+        c, s = self.azimuth(positions)
+        t = np.asarray(tensors, dtype=float)
+        xx, yy, zz, xy, xz, yz = (t[:, k] for k in range(6))
+        cc, ss, cs = c * c, s * s, c * s
+        return np.column_stack([
+            cc * xx + ss * yy + 2.0 * cs * xy,
+            ss * xx + cc * yy - 2.0 * cs * xy,
+            zz,
+            cs * (yy - xx) + (cc - ss) * xy,
+            c * xz + s * yz,
+            -s * xz + c * yz,
+        ])
 
     def cell_volumes(self, edges: Sequence[np.ndarray], box=None) -> np.ndarray:
         """Ring volumes :math:`\\pi\\,\\Delta(r^2)\\,\\Delta z`, shape (n_r, n_z)."""

@@ -59,9 +59,69 @@ I_i(\\boldsymbol\\Omega_i - \\boldsymbol\\Omega)^2]` and
 :math:`\\sigma = \\frac1V \\sum_i [\\sigma^c_i V_i + m_i (\\mathbf v_i - \\mathbf u)
 (\\mathbf v_i - \\mathbf u)]`.
 
+Pressures are a third of the traces (compressive positive, like the stresses;
+the silo paper calls the trace itself the pressure, we divide by three):
+
+.. math::
+
+    p^k = \\tfrac13 \\operatorname{tr}\\sigma^k, \\quad
+    p^c = \\tfrac13 \\operatorname{tr}\\sigma^c, \\quad p = p^k + p^c
+    \\qquad (\\texttt{pk, pc, p}).
+
 Convention: because primitives are averaged first, fluctuations of the node's
 mean velocity (and spin) *between frames* count as kinetic stress and as
 temperature, exactly like fluctuations between particles within a frame.
+
+Components. With :class:`~postproc.coordinates.XCoordinates` vectors and
+tensors are Cartesian (``u_x``, ``sigmak_xy``). With
+:class:`~postproc.coordinates.RZCoordinates` every particle's vectors and tensors
+are first expressed in the cylindrical basis at its own azimuth, so the columns
+are ``u_r u_t u_z`` and ``<f>_rr _tt _zz _rt _rz _tz`` (``t`` for
+:math:`\\theta`): exact for :math:`z` components and for the pressures, accurate
+to :math:`O(w/r)` for the others within a few kernel widths :math:`w` of the axis
+(see :class:`~postproc.coordinates.RZCoordinates`).
+
+Species (Rubio-Largo et al. 2016, eqs 2 and 8). Given ``species`` (type ids),
+mass, volume, momentum and momentum flux are also accumulated per species
+:math:`j` (each particle deposits into its own species' arrays only; the totals
+are their sums), and after averaging
+
+.. math::
+
+    \\rho_j = \\overline{\\textstyle\\sum_{i \\in j} w_i m_i}, \\quad
+    \\phi_j = \\overline{\\textstyle\\sum_{i \\in j} w_i \\tfrac43\\pi r_i^3},
+
+.. math::
+
+    s^j_{ab} = \\overline{\\textstyle\\sum_{i\\in j} w_i m_i v'_{ia} v'_{ib}}
+    = F^j_{ab} - V_a P^j_b - P^j_a V_b + \\rho_j V_a V_b, \\quad
+    \\mathbf v'_i = \\mathbf v_i - \\mathbf V,
+
+with :math:`\\mathbf V = \\mathbf u` the *total* velocity field and
+:math:`F^j, \\mathbf P^j` the species' momentum flux and momentum densities;
+:math:`\\sum_j s^j = \\sigma^k` exactly. Columns ``rho_s<id>``, ``phi_s<id>``,
+``sigmak_s<id>_<comp>`` and ``pk_s<id>`` (:math:`\\tfrac13\\operatorname{tr} s^j`),
+each present when its total field is requested.
+
+Contact stress from contacts (paper eq. 5). Given a
+:class:`~postproc.contacts.ContactFrame` to :meth:`FieldAccumulator.accumulate`,
+the contact stress is the line integral along the branch vectors, each pair once,
+
+.. math::
+
+    \\sigma^c_{ab}(\\mathbf r) = \\sum_{\\text{pairs}} f_{ij,a}\\, r_{ij,b}
+    \\int_0^1 \\phi(\\mathbf r - \\mathbf x_i + s\\,\\mathbf r_{ij})\\,\\mathrm ds,
+    \\qquad \\mathbf r_{ij} = \\mathbf x_i - \\mathbf x_j,
+
+compressive positive (:math:`\\mathbf f_{ij}\\cdot\\mathbf r_{ij} > 0` for
+repulsion; the paper's eq. 5 has the opposite sign and counts each pair twice
+with a factor 1/2), symmetrised, with the :math:`s`-integral by Gauss-Legendre
+points along the segment (:func:`postproc.contacts.branch_quadrature`), each
+deposited with the accumulator's kernel and expressed in the basis at that point.
+The paper resolves the contact stress with a narrower kernel (:math:`w = r_b/2`)
+than the other fields (:math:`w = 2 r_b`): run a second accumulator with
+``fields=("sigmac", "pc")`` and its own kernel, and pass it the same frames and
+contacts; it deposits nothing per particle.
 
 Standard errors come from ``n_blocks`` contiguous blocks of frames (fewer if
 there are fewer frames): every field is derived per block from the block's
@@ -80,21 +140,27 @@ than ``16 n_blocks`` frames were accumulated).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Iterable, Sequence
 
 import numpy as np
 import pandas as pd
 
+from .contacts import ContactFrame, branch_quadrature
 from .coordinates import XCoordinates
 from .frame import ParticleFrame
 from .kernels import HeavisideBins, channel_bin_edges
 
-#: Field names in output order.
+#: Field names in output order (the default set).
 FIELDS = ("n", "phi", "rho", "u", "Omega", "T", "sigmac", "sigmak", "sigma")
+#: Pressures, a third of the stress traces (compressive positive).
+PRESSURES = ("pk", "pc", "p")
+#: Every field an accumulator can compute, in output order.
+ALL_FIELDS = FIELDS + PRESSURES
+#: Fields with per-species partials when ``species`` is given.
+SPECIES_FIELDS = ("phi", "rho", "sigmak", "pk")
 
 _VECTOR = ("x", "y", "z")
-_TENSOR = ("xx", "yy", "zz", "xy", "xz", "yz")
 _PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 #: Sub-blocks kept per requested block (memory bound, see module docstring).
@@ -141,16 +207,36 @@ _FIELD_PRIMITIVES: dict[str, tuple[str, ...]] = {
     "sigmac": ("contact_stress",),
     "sigmak": _KINETIC,
     "sigma": (*_KINETIC, "contact_stress"),
+    "pk": _KINETIC,
+    "pc": ("contact_stress",),
+    "p": (*_KINETIC, "contact_stress"),
+}
+#: Per-species primitives of the partial fields.
+_SPECIES_PRIMITIVES: dict[str, tuple[str, ...]] = {
+    "phi": ("volume",),
+    "rho": ("mass",),
+    "sigmak": _KINETIC,
+    "pk": _KINETIC,
 }
 
 
-def field_columns(field: str) -> list[str]:
-    """Output column names of one field, e.g. ``u`` -> ``u_x, u_y, u_z``."""
+def field_columns(field: str, components: Sequence[str] = _VECTOR) -> list[str]:
+    """Output column names of one field, e.g. ``u`` -> ``u_x, u_y, u_z``.
+
+    ``components`` names the basis (``("r", "t", "z")`` for ``rz`` fields).
+    """
     if field in ("u", "Omega"):
-        return [f"{field}_{c}" for c in _VECTOR]
+        return [f"{field}_{c}" for c in components]
     if field in ("sigmac", "sigmak", "sigma"):
-        return [f"{field}_{c}" for c in _TENSOR]
+        return [f"{field}_{components[a]}{components[b]}" for a, b in _PAIRS]
     return [field]
+
+
+def species_columns(field: str, species_id: int, components: Sequence[str] = _VECTOR) -> list[str]:
+    """Columns of a species partial, e.g. ``("sigmak", 3)`` -> ``sigmak_s3_xx ...``."""
+    if field == "sigmak":
+        return [f"sigmak_s{species_id}_{components[a]}{components[b]}" for a, b in _PAIRS]
+    return [f"{field}_s{species_id}"]
 
 
 def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
@@ -158,14 +244,24 @@ def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
     return np.divide(num, den, out=np.full(np.broadcast(num, den).shape, np.nan), where=den > 0)
 
 
-def _derive(mean: dict[str, np.ndarray], fields: Sequence[str], node_volumes) -> dict[str, np.ndarray]:
+def _kinetic_stress(mass: np.ndarray, momentum: np.ndarray, flux: np.ndarray) -> np.ndarray:
+    """:math:`F_{ab} - P_a P_b / \\rho`, zero (not NaN) where there is no mass."""
+    pp = np.column_stack([momentum[:, a] * momentum[:, b] for a, b in _PAIRS])
+    return flux - np.divide(pp, mass, out=np.zeros_like(pp), where=mass > 0)
+
+
+def _trace3(tensor: np.ndarray) -> np.ndarray:
+    """A third of the trace of (n, 6) tensors."""
+    return tensor[:, :3].sum(axis=1) / 3.0
+
+
+def _derive(mean: dict[str, np.ndarray], fields: Sequence[str], node_volumes,
+            components: Sequence[str] = _VECTOR, species: Sequence[dict[str, np.ndarray]] = (),
+            species_ids: Sequence[int] = ()) -> dict[str, np.ndarray]:
     """Fields from frame-averaged primitive densities (see module docstring)."""
     out: dict[str, np.ndarray] = {}
-    if {"sigmak", "sigma", "T"} & set(fields):
-        m, p = mean["mass"], mean["momentum"]
-        pp = np.column_stack([p[:, a] * p[:, b] for a, b in _PAIRS])
-        # no mass, no kinetic stress: 0, not NaN
-        kinetic = mean["momentum_flux"] - np.divide(pp, m, out=np.zeros_like(pp), where=m > 0)
+    if {"sigmak", "sigma", "T", "pk", "p"} & set(fields):
+        kinetic = _kinetic_stress(mean["mass"], mean["momentum"], mean["momentum_flux"])
     for field in fields:
         if field == "n":
             values = mean["number"][:, 0] * node_volumes
@@ -191,8 +287,43 @@ def _derive(mean: dict[str, np.ndarray], fields: Sequence[str], node_volumes) ->
             values = kinetic
         elif field == "sigma":
             values = mean["contact_stress"] + kinetic
+        elif field == "pk":
+            values = _trace3(kinetic)
+        elif field == "pc":
+            values = _trace3(mean["contact_stress"])
+        elif field == "p":
+            values = _trace3(kinetic) + _trace3(mean["contact_stress"])
         values = values.reshape(len(values), -1)
-        out.update({c: values[:, k] for k, c in enumerate(field_columns(field))})
+        out.update({c: values[:, k] for k, c in enumerate(field_columns(field, components))})
+    if species:
+        out.update(_derive_species(mean, fields, components, species, species_ids))
+    return out
+
+
+def _derive_species(mean, fields, components, species, species_ids) -> dict[str, np.ndarray]:
+    """Per-species partial fields (module docstring, eqs 2 and 8 of Rubio-Largo et al.)."""
+    out: dict[str, np.ndarray] = {}
+    partial = [f for f in SPECIES_FIELDS if f in fields]
+    if {"sigmak", "pk"} & set(partial):
+        m = mean["mass"]
+        velocity = np.divide(mean["momentum"], m, out=np.zeros_like(mean["momentum"]), where=m > 0)
+    for field in partial:
+        for sid, sp in zip(species_ids, species):
+            if field == "phi":
+                values = sp["volume"][:, 0]
+            elif field == "rho":
+                values = sp["mass"][:, 0]
+            else:
+                p, ms = sp["momentum"], sp["mass"][:, 0]
+                values = np.column_stack([
+                    sp["momentum_flux"][:, k] - velocity[:, a] * p[:, b] - p[:, a] * velocity[:, b]
+                    + ms * velocity[:, a] * velocity[:, b]
+                    for k, (a, b) in enumerate(_PAIRS)
+                ])
+                if field == "pk":
+                    values = _trace3(values)
+            values = values.reshape(len(values), -1)
+            out.update({c: values[:, k] for k, c in enumerate(species_columns(field, sid, components))})
     return out
 
 
@@ -268,17 +399,26 @@ class FieldAccumulator(ConcludedResult):
     kernel : HeavisideBins or Gaussian
         How particles spread onto nodes (:mod:`postproc.kernels`).
     coordinates : XCoordinates or RZCoordinates
-        Which coordinates the kernel resolves (:mod:`postproc.coordinates`).
+        Which coordinates the kernel resolves (:mod:`postproc.coordinates`); also
+        the basis of vector and tensor components (module docstring).
     fields : sequence of str
-        Any of :data:`FIELDS`: ``n`` (mean particle count per node), ``phi``
+        Any of :data:`ALL_FIELDS`: ``n`` (mean particle count per node), ``phi``
         (volume fraction), ``rho`` (mass density), ``u`` (velocity), ``Omega``
         (spin), ``T`` (granular temperature incl. rotation), ``sigmac``,
         ``sigmak``, ``sigma`` (contact, kinetic and total stress, compressive
-        positive). Fields needing ``omega`` (``Omega``, ``T``) or
-        ``contact_stress_volume`` (``sigmac``, ``sigma``) are omitted when the
-        first frame lacks them (see :attr:`omitted_fields`).
+        positive), ``pk``, ``pc``, ``p`` (their pressures, a third of the
+        traces). Fields needing ``omega`` (``Omega``, ``T``) or a contact stress
+        (``sigmac``, ``sigma``, ``pc``, ``p``: from contacts, or else from
+        ``contact_stress_volume``) are omitted when the first frame lacks them
+        (see :attr:`omitted_fields`). Default :data:`FIELDS`.
     n_blocks : int
         Number of contiguous frame blocks for standard errors (at least 2).
+    species : sequence of int, optional
+        Particle type ids; adds the per-species partials of :data:`SPECIES_FIELDS`
+        (module docstring). Every particle's type must be listed.
+    method : {"auto", "compiled", "numpy"}
+        Deposit path of a :class:`~postproc.kernels.Gaussian` kernel (``numpy``
+        is the reference; Heaviside bins always use numpy).
 
     Examples
     --------
@@ -289,18 +429,41 @@ class FieldAccumulator(ConcludedResult):
         for frame in frames:
             acc.accumulate(frame)
         table = acc.conclude()
+
+    The silo (Rubio-Largo et al. 2016): bulk fields with :math:`w = 2 r_b` and
+    the contact stress with :math:`w = r_b / 2`, from the same frames:
+
+    .. code-block:: python
+
+        rz = RZCoordinates()
+        bulk = FieldAccumulator(Gaussian.paper(2 * r_b, (r_nodes, z_nodes)), rz,
+                                fields=("phi", "rho", "u", "sigmak", "pk"), species=range(1, 8))
+        contact = FieldAccumulator(Gaussian.paper(r_b / 2, (r_fine, z_fine)), rz,
+                                   fields=("sigmac", "pc"))
+        for acc in (bulk, contact):
+            acc.prepare()
+        for frame, contacts in zip(frames, contact_frames):
+            bulk.accumulate(frame)
+            contact.accumulate(frame, contacts)
     """
 
-    def __init__(self, kernel, coordinates, fields: Sequence[str] = FIELDS, n_blocks: int = 8):
-        unknown = [f for f in fields if f not in FIELDS]
+    def __init__(self, kernel, coordinates, fields: Sequence[str] = FIELDS, n_blocks: int = 8,
+                 species: Sequence[int] | None = None, method: str = "auto"):
+        unknown = [f for f in fields if f not in ALL_FIELDS]
         if unknown:
-            raise ValueError(f"unknown fields {unknown}; choose from {FIELDS}")
+            raise ValueError(f"unknown fields {unknown}; choose from {ALL_FIELDS}")
         if int(n_blocks) < 2:
             raise ValueError("n_blocks must be at least 2 for standard errors")
+        if method not in ("auto", "compiled", "numpy"):
+            raise ValueError(f"method must be 'auto', 'compiled' or 'numpy', not {method!r}")
         self.kernel = kernel
         self.coordinates = coordinates
-        self.requested_fields = tuple(f for f in FIELDS if f in fields)
+        self.requested_fields = tuple(f for f in ALL_FIELDS if f in fields)
         self.n_blocks = int(n_blocks)
+        self.species = None if species is None else tuple(int(t) for t in species)
+        if self.species is not None and (not self.species or len(set(self.species)) != len(self.species)):
+            raise ValueError(f"species must be distinct type ids, got {species!r}")
+        self.method = method
         self._prepared = False
         self._reset()
 
@@ -309,8 +472,15 @@ class FieldAccumulator(ConcludedResult):
         self._fields: tuple[str, ...] | None = None
         self._omitted: dict[str, str] | None = None
         self._primitives: tuple[str, ...] = ()
+        self._species_primitives: tuple[str, ...] = ()
+        self._contact_source: str | None = None  # "contacts", "per_atom" or None
         self._node_volumes: np.ndarray | None = None
         self._result: pd.DataFrame | None = None
+
+    @property
+    def components(self) -> tuple[str, ...]:
+        """Names of the vector components (``x y z`` or ``r t z``)."""
+        return tuple(getattr(self.coordinates, "components", _VECTOR))
 
     # lifecycle -----------------------------------------------------------------
 
@@ -320,34 +490,36 @@ class FieldAccumulator(ConcludedResult):
         self._sums = _BlockedSums(_SUBBLOCKS_PER_BLOCK * self.n_blocks)
         self._prepared = True
 
-    def accumulate(self, frame: ParticleFrame) -> None:
-        """Add one frame's primitive densities at every node."""
+    def accumulate(self, frame: ParticleFrame, contacts: ContactFrame | None = None) -> None:
+        """Add one frame's primitive densities at every node.
+
+        Parameters
+        ----------
+        frame : ParticleFrame
+        contacts : ContactFrame, optional
+            The frame's contacts (same timestep); when given, the contact stress
+            comes from them (module docstring), else from the frame's
+            ``contact_stress_volume``. The choice made on the first frame holds
+            for the whole average.
+        """
         if not self._prepared:
             raise RuntimeError("FieldAccumulator.accumulate() called before prepare()")
         if self._result is not None:
             raise RuntimeError("FieldAccumulator already concluded; call prepare() to start anew")
         if self._fields is None:
-            self._resolve_fields(frame)
-        missing = {
-            _PRIMITIVES[p].requires
-            for p in self._primitives
-            if _PRIMITIVES[p].requires and getattr(frame, _PRIMITIVES[p].requires) is None
-        }
-        if missing:
-            raise ValueError(
-                f"frame at step {frame.timestep} lacks {sorted(missing)}, present in the first frame"
-            )
-        assignment = self.kernel.assign(self.coordinates.points(frame), self.coordinates, frame.box)
-        values = np.column_stack([_PRIMITIVES[p].values(frame) for p in self._primitives])
-        contributions = assignment.weight[:, None] * values[assignment.particle]
-        n_nodes = self.kernel.n_nodes
-        densities = np.column_stack(
-            [
-                np.bincount(assignment.node, weights=contributions[:, k], minlength=n_nodes)
-                for k in range(contributions.shape[1])
-            ]
-        )
-        self._sums.add(densities)
+            self._resolve_fields(frame, contacts)
+        self._check_frame(frame, contacts)
+        local = self._local_frame(frame)
+        parts = []
+        particle_primitives = [p for p in self._primitives if self._per_particle(p)]
+        if particle_primitives:
+            totals, by_species = self._deposit_particles(local, particle_primitives)
+            parts.append(totals)
+        if self._contact_source == "contacts" and "contact_stress" in self._primitives:
+            parts.append(self._contact_density(frame, contacts))
+        if self._species_primitives:
+            parts.append(by_species)
+        self._sums.add(np.column_stack(parts))
 
     def conclude(self) -> pd.DataFrame:
         """Derive the time-averaged fields and their standard errors.
@@ -357,18 +529,16 @@ class FieldAccumulator(ConcludedResult):
         pandas.DataFrame
             One row per node: node coordinate columns (``x, x_lo, x_hi`` for
             bins in ``x``), then the field columns (:func:`field_columns`),
-            then ``<column>_se`` for each field column. Velocity, spin and
-            temperature are NaN in nodes that never held mass.
+            then the species partials (:func:`species_columns`), then
+            ``<column>_se`` for each of these. Velocity, spin and temperature
+            are NaN in nodes that never held mass.
         """
         if not self._prepared:
             raise RuntimeError("FieldAccumulator.conclude() called before prepare()")
         if self._sums is None or self._sums.n_frames == 0:
             raise RuntimeError("FieldAccumulator.conclude() called before any frame was accumulated")
-        values = _derive(self._unpack(self._sums.total_mean()), self._fields, self._node_volumes)
-        blocks = [
-            _derive(self._unpack(mean), self._fields, self._node_volumes)
-            for mean in self._sums.block_means(self.n_blocks)
-        ]
+        values = self._derive(self._sums.total_mean())
+        blocks = [self._derive(mean) for mean in self._sums.block_means(self.n_blocks)]
         errors = {}
         for column in values:
             stack = np.array([b[column] for b in blocks])
@@ -400,33 +570,143 @@ class FieldAccumulator(ConcludedResult):
 
     # internals -----------------------------------------------------------------
 
-    def _resolve_fields(self, frame: ParticleFrame) -> None:
+    def _per_particle(self, primitive: str) -> bool:
+        """Deposited from particles (all but the contact stress taken from contacts)."""
+        return not (primitive == "contact_stress" and self._contact_source == "contacts")
+
+    def _resolve_fields(self, frame: ParticleFrame, contacts: ContactFrame | None) -> None:
         """Choose fields and primitives from what the first frame provides."""
+        if contacts is not None:
+            self._contact_source = "contacts"
+        elif frame.contact_stress_volume is not None:
+            self._contact_source = "per_atom"
         fields, omitted = [], {}
         for field in self.requested_fields:
-            lacking = sorted(
-                {
-                    _PRIMITIVES[p].requires
-                    for p in _FIELD_PRIMITIVES[field]
-                    if _PRIMITIVES[p].requires and getattr(frame, _PRIMITIVES[p].requires) is None
-                }
-            )
+            lacking = set()
+            for p in _FIELD_PRIMITIVES[field]:
+                if p == "contact_stress":
+                    if self._contact_source is None:
+                        lacking.add("contacts or contact_stress_volume")
+                elif _PRIMITIVES[p].requires and getattr(frame, _PRIMITIVES[p].requires) is None:
+                    lacking.add(_PRIMITIVES[p].requires)
             if lacking:
-                omitted[field] = f"frames lack {', '.join(lacking)}"
+                omitted[field] = f"frames lack {', '.join(sorted(lacking))}"
             else:
                 fields.append(field)
         self._fields, self._omitted = tuple(fields), omitted
         self._primitives = tuple(p for p in _PRIMITIVES if any(p in _FIELD_PRIMITIVES[f] for f in fields))
+        if self.species is not None:
+            wanted = {p for f in fields if f in _SPECIES_PRIMITIVES for p in _SPECIES_PRIMITIVES[f]}
+            self._species_primitives = tuple(p for p in _PRIMITIVES if p in wanted)
+            # the totals of a species primitive are the sums over the species
+            self._primitives = tuple(p for p in _PRIMITIVES if p in self._primitives or p in wanted)
         self._node_volumes = self.kernel.node_volumes(self.coordinates, frame.box)
 
-    def _unpack(self, stacked: np.ndarray) -> dict[str, np.ndarray]:
-        """Split the (n_nodes, K) primitive array into named (n_nodes, width) arrays."""
+    def _check_frame(self, frame: ParticleFrame, contacts: ContactFrame | None) -> None:
+        missing = {
+            _PRIMITIVES[p].requires
+            for p in self._primitives
+            if self._per_particle(p) and _PRIMITIVES[p].requires
+            and getattr(frame, _PRIMITIVES[p].requires) is None
+        }
+        if missing:
+            raise ValueError(
+                f"frame at step {frame.timestep} lacks {sorted(missing)}, present in the first frame"
+            )
+        if self._contact_source == "contacts" and "contact_stress" in self._primitives and contacts is None:
+            raise ValueError(f"frame at step {frame.timestep} comes without contacts, the first frame had them")
+        if self.species is not None and frame.type is None:
+            raise ValueError(f"frame at step {frame.timestep} has no particle types; species need them")
+
+    def _local_frame(self, frame: ParticleFrame) -> ParticleFrame:
+        """The frame with vectors and tensors in the coordinates' basis at each particle."""
+        if self.coordinates.kind == "x":
+            return frame
+        c = self.coordinates
+        return replace(
+            frame,
+            velocity=c.local_vectors(frame.position, frame.velocity),
+            omega=None if frame.omega is None else c.local_vectors(frame.position, frame.omega),
+            contact_stress_volume=None if frame.contact_stress_volume is None
+            else c.local_tensors(frame.position, frame.contact_stress_volume),
+        )
+
+    def _deposit(self, points, values, box, groups=None, n_groups: int = 1) -> np.ndarray:
+        return self.kernel.deposit(points, values, self.coordinates, box, groups, n_groups, method=self.method)
+
+    def _species_index(self, frame: ParticleFrame) -> np.ndarray:
+        types = np.rint(np.asarray(frame.type, dtype=float)).astype(np.int64)
+        ids = np.asarray(self.species)
+        order = np.argsort(ids)
+        where = np.clip(np.searchsorted(ids[order], types), 0, len(ids) - 1)
+        known = ids[order][where] == types
+        if not np.all(known):
+            raise ValueError(f"frame at step {frame.timestep} has particle types "
+                             f"{np.unique(types[~known]).tolist()} not among species {list(self.species)}")
+        return order[where]
+
+    def _deposit_particles(self, frame: ParticleFrame, primitives: Sequence[str]):
+        """Total densities (n_nodes, K) and per-species ones flattened to (n_nodes, S K_s)."""
+        values = np.empty((len(frame.mass), sum(_PRIMITIVES[p].width for p in primitives)))
+        k = 0
+        for p in primitives:
+            width = _PRIMITIVES[p].width
+            values[:, k : k + width] = _PRIMITIVES[p].values(frame)
+            k += width
+        points = self.coordinates.points(frame)
+        if self.species is None:
+            return self._deposit(points, values, frame.box)[0], None
+        n_species = len(self.species)
+        dens = self._deposit(points, values, frame.box, self._species_index(frame), n_species)
+        columns, k = [], 0
+        for p in primitives:
+            width = _PRIMITIVES[p].width
+            if p in self._species_primitives:
+                columns.extend(range(k, k + width))
+            k += width
+        by_species = dens[:, :, columns].transpose(1, 0, 2).reshape(dens.shape[1], -1)
+        return dens.sum(axis=0), by_species
+
+    def _contact_density(self, frame: ParticleFrame, contacts: ContactFrame) -> np.ndarray:
+        """Contact stress density (n_nodes, 6) from the branch-line quadrature."""
+        x_i = contacts.anchor(frame)
+        points, which, weight = branch_quadrature(x_i, contacts.branch, _kernel_width(self.kernel))
+        values = weight[:, None] * self.coordinates.local_tensors(points, contacts.pair_tensors()[which])
+        return self._deposit(self.coordinates.map(points), values, frame.box)[0]
+
+    def _derive(self, stacked: np.ndarray) -> dict[str, np.ndarray]:
+        totals, species = self._unpack(stacked)
+        return _derive(totals, self._fields, self._node_volumes, self.components, species,
+                       self.species or ())
+
+    def _unpack(self, stacked: np.ndarray):
+        """Split the (n_nodes, K) primitive array into named (n_nodes, width) arrays.
+
+        Returns the totals and, with species, one such dict per species.
+        """
         out, k = {}, 0
-        for p in self._primitives:
+        order = [p for p in self._primitives if self._per_particle(p)]
+        order += [p for p in self._primitives if not self._per_particle(p)]
+        for p in order:
             width = _PRIMITIVES[p].width
             out[p] = stacked[:, k : k + width]
             k += width
-        return out
+        species = []
+        for _ in self.species or ():
+            sp = {}
+            for p in self._species_primitives:
+                width = _PRIMITIVES[p].width
+                sp[p] = stacked[:, k : k + width]
+                k += width
+            species.append(sp)
+        return out, species
+
+
+def _kernel_width(kernel) -> float:
+    """Length scale the branch quadrature must resolve: the Gaussian width or the narrowest bin."""
+    if hasattr(kernel, "width"):
+        return float(kernel.width)
+    return float(min(np.min(np.diff(e)) for e in kernel.edges))
 
 
 def profile_from_frames(

@@ -57,6 +57,10 @@ class ParticleFrame:
         :math:`\\tfrac12\\sum_j F_{ij} x_{ij}` in the order xx, yy, zz, xy, xz, yz,
         compressive positive (the negative of LAMMPS ``compute stress/atom NULL pair``).
     type : ndarray, shape (N,) or None
+    id : ndarray of int, shape (N,) or None
+        LAMMPS atom ids, when the dump has an ``id`` column (the readers sort
+        atoms by id); :meth:`postproc.contacts.ContactFrame.anchor` finds contact
+        partners by them.
     """
 
     timestep: int
@@ -68,6 +72,7 @@ class ParticleFrame:
     omega: np.ndarray | None = None
     contact_stress_volume: np.ndarray | None = None
     type: np.ndarray | None = None
+    id: np.ndarray | None = None
 
     @property
     def moment_of_inertia(self) -> np.ndarray:
@@ -85,7 +90,7 @@ class ParticleFrame:
 
         Required columns: ``x y z vx vy vz mass radius``. Optional: ``omegax omegay
         omegaz``; ``c_<stress_compute>[1..6]`` from ``compute stress/atom NULL pair``;
-        ``type``.
+        ``type``; ``id`` (stored as int64).
         """
         c = frame.columns
         missing = [k for k in ("x", "y", "z", "vx", "vy", "vz", "mass", "radius") if k not in c]
@@ -112,4 +117,5 @@ class ParticleFrame:
             omega=omega,
             contact_stress_volume=stress,
             type=c.get("type"),
+            id=None if "id" not in c else np.rint(np.asarray(c["id"], dtype=float)).astype(np.int64),
         )

@@ -1,0 +1,237 @@
+"""Throughput of the silo's axisymmetric coarse-graining, compiled (numba) vs numpy. Run by hand.
+
+  .venv/bin/python bench/bench_cg.py --frames 5
+
+Synthetic but realistic silo data (Rubio-Largo, Maza & Hidalgo 2016): the seven
+species of radius r_b (9/16 ... 1) in equal numbers (config/scenes/silo.yaml),
+density 7520 kg/m^3, in a cylinder of radius R_c = 20 r_b and height 60 r_b at
+volume fraction 0.55. The packing is random: uniform random centres, then
+overlaps relaxed (each overlapping pair pushed apart along its branch vector,
+walls enforced) until the largest overlap is below 1 % of r_b. Frames are that
+packing jittered by 0.02 r_b, with a plug-like downward flow plus random
+velocities. Contacts are the pairs within 1 % of r_b of touching (about three per
+particle), repulsive normal forces from the hydrostatic pressure at their height
+times an exponential force-chain factor, and tangential forces up to half of them.
+
+Measured, best of a few repeats (the machine is shared: the load average is
+printed): particle-frames/s of FieldAccumulator.accumulate for the silo fields
+(phi, rho, u, sigmak, pk and their partials for the 7 species) with the paper's
+kernel w = 2 r_b (cutoff 8 r_b) on nodes every r_b and every 2 r_b, compiled on 1
+and 2 threads and numpy (Gaussian.assign + one bincount per primitive, the
+reference); contact-frames/s for the contact stress (sigmac, pc) with w = r_b / 2
+(cutoff 2 r_b) on nodes every r_b / 2; and the largest relative difference
+between the two paths. Figures are recorded, not asserted.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "src"))
+
+import numba  # noqa: E402
+from scipy.spatial import cKDTree  # noqa: E402
+
+from postproc.contacts import ContactFrame  # noqa: E402
+from postproc.coordinates import RZCoordinates  # noqa: E402
+from postproc.fields import FieldAccumulator  # noqa: E402
+from postproc.frame import ParticleFrame  # noqa: E402
+from postproc.kernels import Gaussian  # noqa: E402
+
+R_B = 1.0 / 64.0  # largest radius, m
+RADIUS_FRACTIONS = np.linspace(9.0 / 16.0, 1.0, 7)  # the scene's 7 radii / r_b
+DENSITY = 7520.0  # kg/m^3
+R_C, HEIGHT, PHI = 20 * R_B, 60 * R_B, 0.55
+GRAVITY = 10.0
+BULK_FIELDS = ("phi", "rho", "u", "sigmak", "pk")
+CONTACT_FIELDS = ("sigmac", "pc")
+
+
+# --------------------------------------------------------------------------- data
+
+
+def _into_cylinder(position: np.ndarray, radius: np.ndarray) -> None:
+    """Move centres inside the walls: r <= R_c - a, a <= z <= H - a."""
+    r = np.hypot(position[:, 0], position[:, 1])
+    r_max = R_C - radius
+    scale = np.where(r > r_max, r_max / np.maximum(r, 1e-300), 1.0)
+    position[:, :2] *= scale[:, None]
+    position[:, 2] = np.clip(position[:, 2], radius, HEIGHT - radius)
+
+
+def random_packing(rng: np.random.Generator, max_overlap: float = 0.01 * R_B):
+    """Random centres in the silo, relaxed until no overlap exceeds ``max_overlap``.
+
+    Returns positions (N, 3), radii (N,) and species index (N,) in [0, 7).
+    """
+    mean_volume = 4.0 / 3.0 * np.pi * np.mean(RADIUS_FRACTIONS**3) * R_B**3
+    n = int(PHI * np.pi * R_C**2 * HEIGHT / mean_volume)
+    n -= n % 7
+    species = rng.permutation(np.repeat(np.arange(7), n // 7))
+    radius = RADIUS_FRACTIONS[species] * R_B
+    rad, theta = (R_C - radius) * np.sqrt(rng.uniform(size=n)), rng.uniform(0.0, 2 * np.pi, n)
+    position = np.column_stack([rad * np.cos(theta), rad * np.sin(theta), rng.uniform(radius, HEIGHT - radius)])
+    for _ in range(5000):
+        pairs = cKDTree(position).query_pairs(2 * R_B, output_type="ndarray")
+        branch = position[pairs[:, 0]] - position[pairs[:, 1]]
+        distance = np.linalg.norm(branch, axis=1)
+        overlap = radius[pairs[:, 0]] + radius[pairs[:, 1]] - distance
+        hit = overlap > 0
+        if not hit.any() or overlap[hit].max() < max_overlap:
+            break
+        push = 0.51 * (overlap[hit] / distance[hit])[:, None] * branch[hit]  # half each, slightly more
+        shift = np.zeros_like(position)
+        np.add.at(shift, pairs[hit, 0], push)
+        np.add.at(shift, pairs[hit, 1], -push)
+        position += shift
+        _into_cylinder(position, radius)
+    return position, radius, species
+
+
+def make_frames(rng, position, radius, species, n_frames: int) -> list[ParticleFrame]:
+    """The packing jittered by 0.02 r_b, plug-like flow of 0.1 m/s plus 0.02 m/s fluctuations."""
+    n = len(radius)
+    mass = DENSITY * 4.0 / 3.0 * np.pi * radius**3
+    box = np.array([[-R_C, R_C], [-R_C, R_C], [0.0, HEIGHT]])
+    frames = []
+    for k in range(n_frames):
+        pos = position + rng.normal(scale=0.02 * R_B, size=position.shape)
+        _into_cylinder(pos, radius)
+        r = np.hypot(pos[:, 0], pos[:, 1])
+        velocity = rng.normal(scale=0.02, size=(n, 3))
+        velocity[:, 2] -= 0.1 * (1.0 - 0.5 * (r / R_C) ** 2)
+        frames.append(ParticleFrame(k, box, pos, velocity, mass, radius, type=species + 1, id=np.arange(1, n + 1)))
+    return frames
+
+
+def make_contacts(rng, frame: ParticleFrame, gap: float = 0.01 * R_B) -> ContactFrame:
+    """Pairs within ``gap`` of touching; forces from the hydrostatic pressure at their height."""
+    pos, radius = frame.position, frame.radius
+    pairs = cKDTree(pos).query_pairs(2 * R_B + gap, output_type="ndarray")
+    branch = pos[pairs[:, 0]] - pos[pairs[:, 1]]
+    distance = np.linalg.norm(branch, axis=1)
+    touching = distance < radius[pairs[:, 0]] + radius[pairs[:, 1]] + gap
+    pairs, branch, distance = pairs[touching], branch[touching], distance[touching]
+    normal = branch / distance[:, None]
+    height = 0.5 * (pos[pairs[:, 0], 2] + pos[pairs[:, 1], 2])
+    pressure = DENSITY * PHI * GRAVITY * (HEIGHT - height)
+    f_n = pressure * (radius[pairs[:, 0]] + radius[pairs[:, 1]]) ** 2 * rng.exponential(size=len(pairs))
+    tangent = np.cross(normal, rng.normal(size=normal.shape))
+    tangent /= np.linalg.norm(tangent, axis=1)[:, None]
+    force = f_n[:, None] * (normal + rng.uniform(0.0, 0.5, len(pairs))[:, None] * tangent)
+    return ContactFrame(frame.timestep, frame.box, frame.id[pairs[:, 0]], frame.id[pairs[:, 1]], branch, force)
+
+
+# --------------------------------------------------------------------------- timing
+
+
+def grid(spacing: float):
+    return np.arange(0.0, R_C + 0.5 * spacing, spacing), np.arange(0.0, HEIGHT + 0.5 * spacing, spacing)
+
+
+def bulk_accumulator(spacing: float, method: str) -> FieldAccumulator:
+    return FieldAccumulator(Gaussian.paper(2 * R_B, grid(spacing)), RZCoordinates(), fields=BULK_FIELDS,
+                            species=range(1, 8), method=method)
+
+
+def contact_accumulator(spacing: float, method: str) -> FieldAccumulator:
+    return FieldAccumulator(Gaussian.paper(R_B / 2, grid(spacing)), RZCoordinates(), fields=CONTACT_FIELDS,
+                            method=method)
+
+
+def best_pass(make, frames, contacts, repeats: int):
+    """Best wall time of accumulating all frames, and the table of the last pass."""
+    best, table = np.inf, None
+    for _ in range(repeats):
+        acc = make()
+        acc.prepare()
+        t0 = time.perf_counter()
+        for k, frame in enumerate(frames):
+            if contacts is None:
+                acc.accumulate(frame)
+            else:
+                acc.accumulate(frame, contacts[k])
+        best = min(best, time.perf_counter() - t0)
+        table = acc.conclude()
+    return best, table
+
+
+def max_relative_difference(a, b, columns) -> float:
+    """Largest |a - b| / max |b| over ``columns`` (NaN-free nodes)."""
+    worst = 0.0
+    for c in columns:
+        x, y = a[c].to_numpy(), b[c].to_numpy()
+        ok = np.isfinite(x) & np.isfinite(y)
+        scale = np.max(np.abs(y[ok])) if ok.any() else 0.0
+        if scale > 0:
+            worst = max(worst, float(np.max(np.abs(x[ok] - y[ok])) / scale))
+    return worst
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=5, help="frames per pass")
+    parser.add_argument("--repeats", type=int, default=5, help="passes of the compiled path (best is kept)")
+    parser.add_argument("--numpy-repeats", type=int, default=2, help="passes of the numpy path")
+    parser.add_argument("--seed", type=int, default=2016)
+    args = parser.parse_args(argv)
+
+    rng = np.random.default_rng(args.seed)
+    t0 = time.perf_counter()
+    position, radius, species = random_packing(rng)
+    frames = make_frames(rng, position, radius, species, args.frames)
+    contacts = [make_contacts(rng, f) for f in frames]
+    n, m = len(radius), int(np.mean([len(c) for c in contacts]))
+    phi = np.sum(4 / 3 * np.pi * radius**3) / (np.pi * R_C**2 * HEIGHT)
+    print(f"data: {n} particles (phi = {phi:.3f}), {m} contacts per frame ({2 * m / n:.2f} per particle), "
+          f"{args.frames} frames; built in {time.perf_counter() - t0:.1f} s")
+    print(f"machine: {os.cpu_count()} cores, numba {numba.__version__} ({numba.config.NUMBA_NUM_THREADS} threads), "
+          f"load average before {os.getloadavg()[0]:.2f}")
+
+    # compile (or load the cache) outside the timings
+    best_pass(lambda: bulk_accumulator(2 * R_B, "compiled"), frames[:1], None, 1)
+    best_pass(lambda: contact_accumulator(R_B, "compiled"), frames[:1], contacts[:1], 1)
+
+    rows, agreement = [], []
+    threads = [t for t in (1, 2) if t <= numba.config.NUMBA_NUM_THREADS]
+    for label, make, spacing, cts, unit in (
+        ("bulk, w = 2 r_b", bulk_accumulator, R_B, None, n),
+        ("bulk, w = 2 r_b", bulk_accumulator, 2 * R_B, None, n),
+        ("contacts, w = r_b/2", contact_accumulator, R_B / 2, contacts, m),
+    ):
+        reference_time, reference = best_pass(lambda: make(spacing, "numpy"), frames, cts, args.numpy_repeats)
+        nodes = len(grid(spacing)[0]) * len(grid(spacing)[1])
+        rows.append((label, spacing / R_B, nodes, "numpy", 1, unit * args.frames / reference_time, 1.0))
+        for t in threads:
+            numba.set_num_threads(t)
+            elapsed, table = best_pass(lambda: make(spacing, "compiled"), frames, cts, args.repeats)
+            rows.append((label, spacing / R_B, nodes, "compiled", t, unit * args.frames / elapsed,
+                         reference_time / elapsed))
+        numba.set_num_threads(max(threads))
+        values = [c for c in reference.columns if not c.endswith("_se") and c not in ("r", "z")]
+        densities = [c for c in values if c.startswith(("phi", "rho"))]
+        derived = [c for c in values if c not in densities]
+        agreement.append((label, spacing / R_B, max_relative_difference(table, reference, densities),
+                          max_relative_difference(table, reference, derived)))
+
+    print()
+    print(f"{'fields':22s} {'nodes':>12s} {'path':>9s} {'threads':>7s} {'items-frames/s':>15s} {'vs numpy':>9s}")
+    for label, spacing, nodes, path, t, rate, ratio in rows:
+        unit = "contact" if label.startswith("contacts") else "particle"
+        print(f"{label:22s} {f'{spacing:g} r_b ({nodes})':>12s} {path:>9s} {t:7d} "
+              f"{rate / 1e6:9.3f} M {unit[0]}  {ratio:8.1f}x")
+    print()
+    print("agreement, compiled vs numpy: max |difference| / max |numpy| over nodes")
+    for label, spacing, dens, der in agreement:
+        print(f"  {label:22s} nodes {spacing:g} r_b: densities {dens:.1e}, derived fields {der:.1e}")
+    print(f"load average after {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -389,9 +389,12 @@ def _deposit_chunk(start, stop, r, z, values, groups, r0, hr, n_r, z0, hz, n_z, 
                 full = _near_full(near_u, near_v, ia, l0, l1, l2, l3, e_a)
                 inv_2a = 0.5 / a if a > 0.0 else 0.0
                 for j in range(j_lo, j_hi):
-                    b = max(b_row - dz2h[j], 0.0)
-                    wz[j] = g_row * gz[j] * _near_J(b, a, inv_2a, full, e_a, near_u, near_v,
-                                                    ia, l0, l1, l2, l3, u_scale)
+                    b = b_row - dz2h[j]
+                    if b > 0.0:  # d < c strictly, as in the numpy path (on the axis J(a, 0+) = pi)
+                        wz[j] = g_row * gz[j] * _near_J(b, a, inv_2a, full, e_a, near_u, near_v,
+                                                        ia, l0, l1, l2, l3, u_scale)
+                    else:
+                        wz[j] = 0.0
             _deposit_row(out, o, step, wz, j_lo, j_hi, q, n_pad)
 
 

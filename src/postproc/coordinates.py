@@ -153,15 +153,22 @@ class RZCoordinates:
         pos = np.asarray(positions, dtype=float).reshape(-1, 3)
         dx, dy = pos[:, 0] - self.axis_center[0], pos[:, 1] - self.axis_center[1]
         r = np.hypot(dx, dy)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cos, sin = dx / r, dy / r
         on_axis = r == 0
-        r = np.where(on_axis, 1.0, r)
-        return np.where(on_axis, 1.0, dx / r), np.where(on_axis, 0.0, dy / r)
+        if on_axis.any():
+            cos[on_axis], sin[on_axis] = 1.0, 0.0
+        return cos, sin
 
     def local_vectors(self, positions, vectors) -> np.ndarray:
         """Components :math:`(v_r, v_\\theta, v_z)`, shape (N, 3)."""
         c, s = self.azimuth(positions)
         v = np.asarray(vectors, dtype=float)
-        return np.column_stack([c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1], v[:, 2]])
+        out = np.empty_like(v)
+        out[:, 0] = c * v[:, 0] + s * v[:, 1]
+        out[:, 1] = c * v[:, 1] - s * v[:, 0]
+        out[:, 2] = v[:, 2]
+        return out
 
     def local_tensors(self, positions, tensors) -> np.ndarray:
         """Symmetric tensors rotated to :math:`(r, \\theta, z)`: rr tt zz rt rz tz, shape (N, 6).

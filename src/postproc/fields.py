@@ -177,7 +177,11 @@ class _Primitive:
 
 
 def _outer_pairs(weight: np.ndarray, vec: np.ndarray) -> np.ndarray:
-    return np.column_stack([weight * vec[:, a] * vec[:, b] for a, b in _PAIRS])
+    out = np.empty((len(vec), len(_PAIRS)))
+    wv = weight[:, None] * vec
+    for k, (a, b) in enumerate(_PAIRS):
+        np.multiply(wv[:, a], vec[:, b], out=out[:, k])
+    return out
 
 
 _PRIMITIVES: dict[str, _Primitive] = {

@@ -68,6 +68,22 @@ def case_values(scene: dict, rung_name: str, case: dict | None = None) -> dict:
     return merged
 
 
+def shared_si_params(model: ContactModel, skin: float, neigh: dict, guards: dict) -> list[Param]:
+    """Deck numbers every SI scene writes the same way: tangential spring, friction,
+    shortest contact, neighbour lists and guards."""
+    return [
+        Param("k_t", round(model.k_t, 9), "tangential stiffness k_t = kt_over_kn k_n, N/m"),
+        Param("friction", model.friction, "particle-particle sliding friction"),
+        Param("wall_friction", model.wall_friction, "particle-wall sliding friction"),
+        Param("t_c_min", round(model.stiffest.t_c, 12), f"shortest contact time ({model.stiffest.name}), s"),
+        Param("skin", round(skin, 9), "neighbour skin, m"),
+        Param("neigh_one", neigh["neigh_one"], f"max neighbours per particle (size ratio {neigh['size_ratio']:.3g})"),
+        Param("neigh_page", neigh["neigh_page"], "neighbour page size"),
+        Param("max_overlap", guards["max_overlap"], "halt: largest overlap / d_min above this"),
+        Param("max_speed", guards["max_speed"], "halt: rms particle speed above this, m/s"),
+    ]
+
+
 def time_step(rung: dict, model: ContactModel) -> float:
     """The rung's explicit ``dt`` or ``dt_fraction`` x the shortest contact time."""
     if rung.get("dt") is not None:

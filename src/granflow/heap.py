@@ -21,7 +21,7 @@ import math
 
 from .config import check_rung
 from .contact import ContactModel, contact_model_for_time
-from .deck import Param, _number, time_step
+from .deck import Param, _number, shared_si_params, time_step
 from .preflight import PreflightError, check_time_step, neighbor_settings
 
 #: gravitational acceleration, m/s^2
@@ -232,18 +232,10 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("d_min", round(d_min, 12), "smallest diameter, m"),
         Param("d_ref", d_ref, "reference diameter (largest species' mean): its pair has contact time t_c, m"),
         Param("k_n", round(model.k_n, 9), f"normal stiffness: t_c = {rung['t_c']:g} s, e = {scene['contact']['e_n']} for the d_ref pair, N/m"),
-        Param("k_t", round(model.k_t, 9), "tangential stiffness k_t = kt_over_kn k_n, N/m"),
         Param("xi_n", round(model.xi_n, 9), "normal damping rate -2 ln(e)/t_c (force m_eff xi_n v_n), 1/s"),
         Param("xi_t", round(model.xi_t, 9), "tangential damping rate, 1/s"),
-        Param("friction", model.friction, "particle-particle sliding friction"),
-        Param("wall_friction", model.wall_friction, "particle-wall sliding friction"),
-        Param("t_c_min", round(model.stiffest.t_c, 12), f"shortest contact time ({model.stiffest.name}), s"),
         Param("dt", round(dt, 12), f"time step = {dt / model.stiffest.t_c:.4g} t_c_min, s"),
-        Param("skin", round(skin, 9), "neighbour skin, m"),
-        Param("neigh_one", neigh["neigh_one"], f"max neighbours per particle (size ratio {neigh['size_ratio']:.3g})"),
-        Param("neigh_page", neigh["neigh_page"], "neighbour page size"),
-        Param("max_overlap", scene["guards"]["max_overlap"], "halt: largest overlap / d_min above this"),
-        Param("max_speed", scene["guards"]["max_speed"], "halt: rms particle speed above this, m/s"),
+        *shared_si_params(model, skin, neigh, scene["guards"]),
         Param("n_feed", nfreq, "steps between insertions (free fall through the feed region)"),
         Param("n_segment", n_segment, "steps per segment (a whole number of insertion periods)"),
         Param("n_thermo", steps(rung["thermo_interval"]), "steps between thermo samples"),

@@ -19,7 +19,7 @@ import numpy as np
 
 from .config import check_rung
 from .contact import Contact, ContactModel, _model, contact_time, damping_for_restitution
-from .deck import Param, _number
+from .deck import Param, _number, shared_si_params
 from .preflight import PreflightError, check_time_step, neighbor_settings
 
 
@@ -236,18 +236,10 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("seed", int(case["seed"]), "random seed (re-insertion)"),
         Param("d_min", round(d_min, 12), "smallest diameter, m"),
         Param("k_n", round(model.k_n, 6), f"normal stiffness: eq. 10 for two r_b spheres at Y = {rung['Y_factor'] * scene['contact']['youngs_modulus']:.4g} Pa, N/m"),
-        Param("k_t", round(model.k_t, 6), "tangential stiffness k_t = kt_over_kn k_n, N/m"),
         Param("xi_n", round(model.xi_n, 9), f"normal damping rate (x m_eff): e_n = {scene['contact']['e_n']} for the r_b pair, 1/s"),
         Param("xi_t", round(model.xi_t, 9), "tangential damping rate xi_t = 0.1 xi_n, 1/s"),
-        Param("friction", model.friction, "particle-particle sliding friction"),
-        Param("wall_friction", model.wall_friction, "particle-wall sliding friction"),
-        Param("t_c_min", round(model.stiffest.t_c, 12), f"shortest contact time ({model.stiffest.name}), s"),
         Param("dt", round(dt, 13), f"time step = {rung['dt_fraction']:g} t_c_min, s"),
-        Param("skin", round(skin, 9), "neighbour skin, m"),
-        Param("neigh_one", neigh["neigh_one"], f"max neighbours per particle (size ratio {neigh['size_ratio']:.3g})"),
-        Param("neigh_page", neigh["neigh_page"], "neighbour page size"),
-        Param("max_overlap", scene["guards"]["max_overlap"], "halt: largest overlap / d_min above this"),
-        Param("max_speed", scene["guards"]["max_speed"], "halt: rms particle speed above this, m/s"),
+        *shared_si_params(model, skin, neigh, scene["guards"]),
         Param("n_settle_min", thermo_multiple(proto["t_settle_min"]), "shortest settling with the orifice closed, steps"),
         Param("n_settle", thermo_multiple(max(proto["t_settle_max"], proto["t_settle_min"])),
               "longest settling with the orifice closed, steps"),

@@ -34,14 +34,13 @@ repulsive contact has :math:`\\mathbf f_{ij} \\cdot \\mathbf r_{ij} > 0`.
 """
 from __future__ import annotations
 
-import itertools
 import os
 from dataclasses import dataclass
 from typing import Iterator
 
 import numpy as np
 
-from .dump import DumpError
+from .dump import DumpError, text_frames
 from .frame import ParticleFrame
 
 __all__ = ["ContactFrame", "read_contact_dump", "branch_quadrature", "QUADRATURE_POINTS_PER_WIDTH"]
@@ -230,69 +229,12 @@ def read_contact_dump(path: str | os.PathLike) -> Iterator[ContactFrame]:
         If a frame is truncated or malformed; the message names the file, the
         0-based frame index and the line.
     """
-    spath = os.fspath(path)
-    with open(spath, "r") as fh:
-        frame, lineno = -1, 0
+    def refuse(names: list[str]) -> str | None:
+        columns = _column_indices(names)
+        return columns if isinstance(columns, str) else None
 
-        def fail(what: str) -> DumpError:
-            return DumpError(f"{spath}: frame {max(frame, 0)} at line {lineno} {what}")
-
-        def next_line(what: str) -> str:
-            nonlocal lineno
-            line = fh.readline()
-            if not line:
-                raise fail(f"is truncated: file ends while expecting {what}")
-            lineno += 1
-            return line
-
-        while True:
-            line = fh.readline()
-            if not line:
-                return
-            lineno += 1
-            if not line.strip():
-                continue
-            if line.startswith("ITEM: UNITS") or (line.startswith("ITEM: TIME") and not line.startswith("ITEM: TIMESTEP")):
-                next_line("the value of " + line.strip())
-                continue
-            frame += 1
-            if not line.startswith("ITEM: TIMESTEP"):
-                raise fail(f"is corrupted: expected 'ITEM: TIMESTEP', got {line.strip()[:60]!r}")
-            try:
-                timestep = int(next_line("the timestep"))
-                if not next_line("'ITEM: NUMBER OF ENTRIES'").startswith("ITEM: NUMBER OF ENTRIES"):
-                    raise ValueError("missing 'ITEM: NUMBER OF ENTRIES'")
-                n_entries = int(next_line("the number of entries"))
-                if n_entries < 0:
-                    raise ValueError(f"negative number of entries {n_entries}")
-                if not next_line("'ITEM: BOX BOUNDS'").startswith("ITEM: BOX BOUNDS"):
-                    raise ValueError("missing 'ITEM: BOX BOUNDS'")
-                box = np.array([[float(v) for v in next_line("box bounds").split()[:2]] for _ in range(3)])
-                if box.shape != (3, 2):
-                    raise ValueError("box bounds need two numbers per line")
-                header = next_line("'ITEM: ENTRIES'")
-                if not header.startswith("ITEM: ENTRIES"):
-                    raise ValueError(f"expected 'ITEM: ENTRIES ...', got {header.strip()[:60]!r}")
-            except ValueError as exc:
-                raise fail(f"is corrupted: {exc}") from None
-            names = header.split()[2:]
-            columns = _column_indices(names)
-            if isinstance(columns, str):
-                raise fail(f"is corrupted: {columns}")
-            first = lineno + 1
-            lines = list(itertools.islice(fh, n_entries))
-            lineno += len(lines)
-            if len(lines) < n_entries:
-                raise fail(f"is truncated: expected {n_entries} entry lines, file ends after {len(lines)}")
-            try:
-                data = np.loadtxt(lines, dtype=np.float64, ndmin=2) if n_entries else np.empty((0, len(names)))
-            except ValueError as exc:
-                lineno = first
-                raise fail(f"is corrupted: entry lines {first}-{first + n_entries - 1} do not parse: {exc}") from None
-            if data.shape != (n_entries, len(names)):
-                lineno = first
-                raise fail(f"is corrupted: entry block has shape {data.shape}, expected ({n_entries}, {len(names)})")
-            yield _contact_frame(timestep, box, data, columns)
+    for block in text_frames(path, "ENTRIES", "entry", check_names=refuse):
+        yield _contact_frame(block.timestep, block.box, block.data, _column_indices(block.names))
 
 
 def _column_indices(names: list[str]):

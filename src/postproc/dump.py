@@ -40,7 +40,7 @@ import os
 import struct
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Sequence
+from typing import Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -404,9 +404,47 @@ def read_text_dump(path: str | os.PathLike, columns: Sequence[str] | None = None
         If a requested column is absent from a frame.
     """
     spath = os.fspath(path)
+    for block in text_frames(spath, "ATOMS", "atom"):
+        picks = _select(spath, block.frame, block.names, columns)
+        yield DumpFrame(
+            timestep=block.timestep,
+            box=block.box,
+            boundary=_boundary_string([c for pair in block.flags for c in pair]),
+            columns=_columns_sorted(block.data, block.names, picks),
+        )
+
+
+@dataclass
+class TextBlock:
+    """One frame of a LAMMPS text dump (custom or local), as :func:`text_frames` parsed it."""
+
+    frame: int
+    timestep: int
+    box: np.ndarray
+    flags: list[str]
+    names: list[str]
+    data: np.ndarray
+
+
+def text_frames(path: str | os.PathLike, item: str, noun: str,
+                check_names: Callable[[list[str]], str | None] | None = None) -> Iterator[TextBlock]:
+    """Walk the frames of a text dump whose blocks are ``ITEM: NUMBER OF <item>`` and ``ITEM: <item> ...``.
+
+    Shared by :func:`read_text_dump` (``item = "ATOMS"``) and
+    :func:`postproc.contacts.read_contact_dump` (``"ENTRIES"``). Optional
+    ``ITEM: UNITS`` and ``ITEM: TIME`` sections are skipped; each block is parsed
+    at once by :func:`numpy.loadtxt`. ``check_names`` may refuse the column names
+    (its message becomes the error) before the block is read.
+
+    Raises
+    ------
+    DumpError
+        Truncated or malformed frames, non-orthogonal boxes; the message names
+        the file, the 0-based frame and the line (``noun`` names the data lines).
+    """
+    spath = os.fspath(path)
     with open(spath, "r") as fh:
-        frame = -1
-        lineno = 0
+        frame, lineno = -1, 0
 
         def fail(what: str) -> DumpError:
             return DumpError(f"{spath}: frame {max(frame, 0)} at line {lineno} {what}")
@@ -434,41 +472,43 @@ def read_text_dump(path: str | os.PathLike, columns: Sequence[str] | None = None
                 raise fail(f"is corrupted: expected 'ITEM: TIMESTEP', got {line.strip()[:60]!r}")
             try:
                 timestep = int(next_line("the timestep"))
-                if not next_line("'ITEM: NUMBER OF ATOMS'").startswith("ITEM: NUMBER OF ATOMS"):
-                    raise ValueError("missing 'ITEM: NUMBER OF ATOMS'")
-                natoms = int(next_line("the number of atoms"))
+                if not next_line(f"'ITEM: NUMBER OF {item}'").startswith(f"ITEM: NUMBER OF {item}"):
+                    raise ValueError(f"missing 'ITEM: NUMBER OF {item}'")
+                n = int(next_line(f"the number of {item.lower()}"))
+                if n < 0:
+                    raise ValueError(f"negative number of {item.lower()} {n}")
                 boxline = next_line("'ITEM: BOX BOUNDS'")
                 if not boxline.startswith("ITEM: BOX BOUNDS"):
                     raise ValueError("missing 'ITEM: BOX BOUNDS'")
                 flags = boxline.split()[3:]
                 if len(flags) != 3:
-                    raise DumpError(f"{spath}: frame {frame} at line {lineno} has a non-orthogonal box: {boxline.strip()!r}")
+                    raise fail(f"has a non-orthogonal box: {boxline.strip()!r}")
                 box = np.array([[float(v) for v in next_line("box bounds").split()[:2]] for _ in range(3)])
-                atomsline = next_line("'ITEM: ATOMS'")
-                if not atomsline.startswith("ITEM: ATOMS"):
-                    raise ValueError("missing 'ITEM: ATOMS'")
+                if box.shape != (3, 2):
+                    raise ValueError("box bounds need two numbers per line")
+                header = next_line(f"'ITEM: {item}'")
+                if not header.startswith(f"ITEM: {item}"):
+                    raise ValueError(f"expected 'ITEM: {item} ...', got {header.strip()[:60]!r}")
             except ValueError as exc:
                 raise fail(f"is corrupted: {exc}") from None
-            names = atomsline.split()[2:]
-            lines = list(itertools.islice(fh, natoms))
-            if len(lines) < natoms:
-                lineno += len(lines)
-                raise fail(f"is truncated: expected {natoms} atom lines, file ends after {len(lines)}")
+            names = header.split()[2:]
+            refusal = check_names(names) if check_names else None
+            if refusal:
+                raise fail(f"is corrupted: {refusal}")
+            first = lineno + 1
+            lines = list(itertools.islice(fh, n))
+            lineno += len(lines)
+            if len(lines) < n:
+                raise fail(f"is truncated: expected {n} {noun} lines, file ends after {len(lines)}")
             try:
-                data = np.loadtxt(lines, dtype=np.float64, ndmin=2) if natoms else np.empty((0, len(names)))
+                data = np.loadtxt(lines, dtype=np.float64, ndmin=2) if n else np.empty((0, len(names)))
             except ValueError as exc:
-                raise fail(f"is corrupted: atom lines do not parse: {exc}") from None
-            lineno += natoms
-            if data.shape != (natoms, len(names)):
-                raise fail(f"is corrupted: atom block has shape {data.shape}, expected ({natoms}, {len(names)})")
-            picks = _select(spath, frame, names, columns)
-            cols = _columns_sorted(data, names, picks)
-            yield DumpFrame(
-                timestep=timestep,
-                box=box,
-                boundary=_boundary_string([c for pair in flags for c in pair]),
-                columns=cols,
-            )
+                lineno = first
+                raise fail(f"is corrupted: {noun} lines {first}-{first + n - 1} do not parse: {exc}") from None
+            if data.shape != (n, len(names)):
+                lineno = first
+                raise fail(f"is corrupted: {noun} block has shape {data.shape}, expected ({n}, {len(names)})")
+            yield TextBlock(frame, timestep, box, flags, names, data)
 
 
 # --------------------------------------------------------------------------- dispatch

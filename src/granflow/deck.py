@@ -84,6 +84,20 @@ def shared_si_params(model: ContactModel, skin: float, neigh: dict, guards: dict
     ]
 
 
+def record_head(scene_name: str, rung_name: str, case: dict, rung: dict, params: list[Param],
+                model: ContactModel, schedule: str = "fixed") -> dict:
+    """The first keys of every parameter record: what ran, at which rung, with which numbers and contacts."""
+    return {
+        "scene": scene_name,
+        "rung": rung_name,
+        "case": case,
+        "rung_knobs": rung,
+        "schedule": schedule,
+        "parameters": {prm.name: prm.value for prm in params},
+        "contacts": [{"name": c.name, "m_eff": c.m_eff, "t_c": c.t_c, "e_n": c.e_n} for c in model.contacts],
+    }
+
+
 def time_step(rung: dict, model: ContactModel) -> float:
     """The rung's explicit ``dt`` or ``dt_fraction`` x the shortest contact time."""
     if rung.get("dt") is not None:

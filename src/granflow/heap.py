@@ -21,7 +21,7 @@ import math
 
 from .config import check_rung
 from .contact import ContactModel, contact_model_for_time
-from .deck import Param, _number, shared_si_params, time_step
+from .deck import Param, _number, record_head, shared_si_params, time_step
 from .preflight import PreflightError, check_time_step, neighbor_settings
 
 #: gravitational acceleration, m/s^2
@@ -261,13 +261,7 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
     n_particles_est = int(case["feed_rate"] * (t_steady + rung["t_average"]) / (
         sum(s["volume_fraction"] * s["mean_mass"] for s in sp)))
     record = {
-        "scene": "heap",
-        "rung": rung_name,
-        "case": case,
-        "rung_knobs": rung,
-        "schedule": "fixed",
-        "parameters": {prm.name: prm.value for prm in params},
-        "contacts": [{"name": c.name, "m_eff": c.m_eff, "t_c": c.t_c, "e_n": c.e_n} for c in model.contacts],
+        **record_head("heap", rung_name, case, rung, params, model),
         "species": sp,
         "feed": {k: plan[k] for k in ("nfreq", "period", "rate_planned", "rate_max", "top_slab_fraction", "pours", "feed_speed")},
         "t_steady_estimate": t_steady,

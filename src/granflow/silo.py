@@ -19,7 +19,7 @@ import numpy as np
 
 from .config import check_rung
 from .contact import Contact, ContactModel, _model, contact_time, damping_for_restitution
-from .deck import Param, _number, shared_si_params
+from .deck import Param, _number, record_head, shared_si_params
 from .preflight import PreflightError, check_time_step, neighbor_settings
 
 
@@ -270,13 +270,7 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         "data_files": {"atoms.data": (gas, sp, box, p["density"], rim)},
     }
     record = {
-        "scene": "silo",
-        "rung": rung_name,
-        "case": case,
-        "rung_knobs": rung,
-        "schedule": "fixed",
-        "parameters": {prm.name: prm.value for prm in params},
-        "contacts": [{"name": c.name, "m_eff": c.m_eff, "t_c": c.t_c, "e_n": c.e_n} for c in model.contacts],
+        **record_head("silo", rung_name, case, rung, params, model),
         "eq10_pairs": eq10,
         "Y": rung["Y_factor"] * scene["contact"]["youngs_modulus"],
         "k_n": model.k_n,

@@ -40,7 +40,7 @@ from typing import Iterator
 
 import numpy as np
 
-from .dump import DumpError, text_frames
+from .dump import text_frames
 from .frame import ParticleFrame
 
 __all__ = ["ContactFrame", "read_contact_dump", "branch_quadrature", "QUADRATURE_POINTS_PER_WIDTH"]

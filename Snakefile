@@ -16,6 +16,7 @@ include: "workflows/rules/common.smk"
 include: "workflows/rules/channel.smk"
 include: "workflows/rules/heap.smk"
 include: "workflows/rules/silo.smk"
+include: "workflows/rules/cost.smk"
 
 
 rule all:
@@ -23,3 +24,9 @@ rule all:
         channel_targets(),
         heap_targets(),
         silo_targets(),
+
+
+rule cost:
+    """Error-versus-cost study of every scene in the campaign's `cost` section (not part of `all`)."""
+    input:
+        cost_targets(),

@@ -52,11 +52,18 @@ def cmd_render(args) -> int:
     scene = load_scene(scene_file, args.overrides)
     record = render_case(scene, args.rung, args.out)
     prm = record["parameters"]
-    what = (f"phi_mean = {prm['phi_mean']:g}, {prm['n_particles']} particles" if args.scene == "channel" else
-            f"feed rate {prm['feed_rate']:g} kg/s ({prm['feed_rate_planned']:.4g} planned), "
-            f"~{record['n_particles_estimate']} particles by the end")
-    print(f"wrote {args.out}/{{init,flow,average}}.lmp and params.json: {args.scene}, rung {args.rung}, "
-          f"W = {prm['W']:g}, {what}, dt = {record['dt']:.4g} ({record['dt'] / prm['t_c_min']:.3g} t_c_min)")
+    if args.scene == "channel":
+        what = f"W = {prm['W']:g} d_p, phi_mean = {prm['phi_mean']:g}, {prm['n_particles']} particles"
+        stages = "init,flow,average"
+    elif args.scene == "heap":
+        what = (f"W = {prm['W']:g} m, feed rate {prm['feed_rate']:g} kg/s ({prm['feed_rate_planned']:.4g} planned), "
+                f"~{record['n_particles_estimate']} particles by the end")
+        stages = "init,flow,average"
+    else:
+        what = f"R = {record['R_over_rb']:g} r_b, R_c = {record['R_c']:g} m, {record['n_particles']} particles"
+        stages = "init,average"
+    print(f"wrote {args.out}/{{{stages}}}.lmp and params.json: {args.scene}, rung {args.rung}, "
+          f"{what}, dt = {record['dt']:.4g} ({record['dt'] / prm['t_c_min']:.3g} t_c_min)")
     return 0
 
 

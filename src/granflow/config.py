@@ -273,7 +273,32 @@ def validate_campaign(data: dict, root: Path, source: str = "config") -> dict:
         elif name == "silo":
             _check_silo_sweep(sc, scene, rung, path)
         sc["scene"] = scene
+    if data.get("cost"):
+        data["cost_studies"] = _cost_studies(data, root, source)
     return data
+
+
+def _cost_studies(data: dict, root: Path, source: str) -> dict:
+    """Every scene study of the ``cost`` section, its variant scenes validated and preflighted."""
+    from .cost import CostStudy  # deferred: cost builds on this module
+    from .deck import scene_parameters
+    from .preflight import PreflightError
+
+    studies = {}
+    for name, study in (data["cost"].get("scenes") or {}).items():
+        if not study.get("enabled", True):
+            continue
+        sc = data.get("scenes", {}).get(name) or {}
+        scene_path = Path(sc.get("scene_file") or f"config/scenes/{name}.yaml")
+        scene = sc.get("scene") or load_scene(scene_path if scene_path.is_absolute() else root / scene_path)
+        cs = CostStudy(name, scene, study, source=f"{source}: cost")
+        for run, variant in cs.scenes.items():
+            try:
+                scene_parameters(variant, cs.rung)
+            except (PreflightError, ValueError) as exc:
+                raise ConfigError(f"{source}: cost.scenes.{name} run {run!r} is not allowed: {exc}") from None
+        studies[name] = cs
+    return studies
 
 
 def _check_channel_sweep(sc: dict, scene: dict, rung: str, path: str) -> None:

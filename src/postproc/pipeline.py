@@ -74,24 +74,45 @@ def momentum_balance(thermo: pd.DataFrame, total_mass: float, g: float = 1.0) ->
     }
 
 
-def particle_frames(paths):
-    """ParticleFrames from a sequence of dump files, in order."""
+def particle_frames(paths, dt: float | None = None, t_window: tuple[float, float] | None = None):
+    """ParticleFrames from a sequence of dump files, in order.
+
+    With ``t_window = (lo, hi)`` (and the time step ``dt``) only the frames with
+    ``lo <= t - t_0 < hi`` are yielded, ``t_0`` being the time of the first frame:
+    a block or a prefix of the averaging window.
+    """
+    t0 = None
     for path in paths:
         for frame in read_dump(path):
+            if t_window is not None:
+                t = frame.timestep * dt
+                t0 = t if t0 is None else t0
+                if not t_window[0] - 1e-9 * abs(t) <= t - t0 < t_window[1] - 1e-9 * abs(t):
+                    continue
             yield ParticleFrame.from_dump(frame)
 
 
-def channel_profile(case_dir: str | Path, n_blocks: int = 8) -> tuple[pd.DataFrame, dict]:
+def case_inputs(case_dir: str | Path, record: dict | None = None) -> tuple[Path, dict, dict]:
+    """The case directory, its parameter record (or ``record``, e.g. with other bin widths) and run status."""
+    case_dir = Path(case_dir)
+    if record is None:
+        record = json.loads((case_dir / "params.json").read_text())
+    status = json.loads((case_dir / "run" / "status.json").read_text())
+    return case_dir, record, status
+
+
+def channel_profile(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float, float] | None = None,
+                    record: dict | None = None) -> tuple[pd.DataFrame, dict]:
     """Time-averaged cross-channel profile of a finished case, in paper units.
 
+    ``t_window`` keeps the frames of that part of the averaging window (times from
+    its first frame); ``record`` replaces ``params.json`` (e.g. another bin width).
     Returns the profile and a small dict of run facts (total mass, frames used).
     """
-    case_dir = Path(case_dir)
-    record = json.loads((case_dir / "params.json").read_text())
-    status = json.loads((case_dir / "run" / "status.json").read_text())
+    case_dir, record, status = case_inputs(case_dir, record)
     dumps = [case_dir / "run" / d for d in status["dumps"]]
     knobs = record["rung_knobs"]
-    frames = list(particle_frames(dumps))
+    frames = list(particle_frames(dumps, record["dt"], t_window))
     if not frames:
         raise ValueError(f"{case_dir}: no frames in {', '.join(map(str, dumps))}")
     profile = profile_from_frames(frames, W=record["parameters"]["W"], bin_width=knobs["bin_width"],
@@ -102,12 +123,15 @@ def channel_profile(case_dir: str | Path, n_blocks: int = 8) -> tuple[pd.DataFra
 
 
 # ----------------------------------------------------------------------- heap
-def feed_rate_measured(thermo: pd.DataFrame) -> tuple[float, float]:
-    """Delivered mass rate over the averaging window: slope of the total mass against time.
+def feed_rate_measured(thermo: pd.DataFrame, t_range: tuple[float, float] | None = None) -> tuple[float, float]:
+    """Delivered mass rate over the averaging window (or the times ``t_range``): slope of
+    the total mass against time.
 
     Returns the rate (kg/s) and its standard error from the least-squares fit.
     """
     th = thermo[thermo["stage"] == "average"] if "stage" in thermo else thermo
+    if t_range is not None:
+        th = th[(th["Time"] >= t_range[0]) & (th["Time"] <= t_range[1])]
     t, m = th["Time"].to_numpy(float), th["v_mtot"].to_numpy(float)
     if len(t) < 3:
         return float("nan"), float("nan")
@@ -122,14 +146,17 @@ def mixture_mean_diameter(species: list[dict]) -> float:
     return float(np.sum(n * d) / np.sum(n))
 
 
-def heap_analysis(case_dir: str | Path, n_blocks: int = 8) -> tuple[dict, dict]:
+def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float, float] | None = None,
+                  record: dict | None = None) -> tuple[dict, dict]:
     """Free surface, moving-frame kinematics and scalings of a finished heap case.
 
     Two passes over the dumps of the averaging window: the free surface of every
     frame (fitted as a rising plane, :func:`postproc.heap.fit_surface`), then the
     volume-weighted kinematics in the frame rotated by alpha that rises with it.
     Bins are the rung's ``bin_dx``, ``bin_dz_phi`` and ``bin_dz_u`` times the
-    mixture's number-mean diameter.
+    mixture's number-mean diameter. ``t_window`` keeps the frames (and thermo rows)
+    of that part of the averaging window, timed from its first frame; ``record``
+    replaces ``params.json`` (e.g. other bin widths).
 
     Returns
     -------
@@ -139,9 +166,7 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8) -> tuple[dict, dict]:
     """
     from . import heap as hp
 
-    case_dir = Path(case_dir)
-    record = json.loads((case_dir / "params.json").read_text())
-    status = json.loads((case_dir / "run" / "status.json").read_text())
+    case_dir, record, status = case_inputs(case_dir, record)
     thermo = pd.read_csv(case_dir / "run" / "thermo.csv")
     dumps = [case_dir / "run" / d for d in status["dumps"]]
     knobs, dt = record["rung_knobs"], record["dt"]
@@ -155,7 +180,7 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8) -> tuple[dict, dict]:
 
     # pass 1: free surface per frame and the phi columns (kept for phi_bed, below)
     t_list, zs_list, phis, n_frames = [], [], [], 0
-    for frame in particle_frames(dumps):
+    for frame in particle_frames(dumps, dt, t_window):
         phi, x_edges, z_edges = hp.volume_fraction_columns(frame.position, frame.radius, geometry,
                                                            dx, dz_phi, z_lo, z_hi)
         z_s = hp.free_surface(phi, z_edges, phi_c)
@@ -177,11 +202,11 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8) -> tuple[dict, dict]:
                                    hp.uniform_edges(-15 * d_bar, 2 * d_bar, dz_u),
                                    geometry.T, n_types=len(species), n_blocks=n_blocks)
     acc.prepare()
-    for frame in particle_frames(dumps):
+    for frame in particle_frames(dumps, dt, t_window):
         hp.accumulate_frame(acc, frame, moving, dt)
     profile = acc.conclude()
 
-    rate, rate_se = feed_rate_measured(thermo)
+    rate, rate_se = feed_rate_measured(thermo, None if t_window is None else (float(t[0]), float(t[-1])))
     per_x, scalars = hp.analyse_heap(profile, fit, geometry, density=record["density"], feed_rate=rate,
                                      phi_bed=float("nan"), d_ref=d_bar, n_types=len(species))
     # the static bed, from 1.5 flowing-layer thicknesses below the surface down to 2 d
@@ -258,13 +283,19 @@ def silo_grid(record: dict, spacing_rb: float) -> tuple[np.ndarray, np.ndarray]:
     return r_nodes, z_nodes
 
 
-def silo_analysis(case_dir: str | Path) -> tuple[dict, dict]:
+def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tuple[float, float] | None = None,
+                  record: dict | None = None, headline_only: bool = False) -> tuple[dict, dict]:
     """Discharge rates, steady window and coarse-grained fields of a finished silo case.
 
     One pass over the particle frames of the steady window feeds every
     accumulator: the main fields at the paper's w = 2 r_b (``cg.w_fields``), the
     kinetic-pressure scan (``cg.w_scan``) and, from the contact frames, the
     contact stress at ``cg.w_contact``.
+
+    ``t_max`` uses only the discharge up to that time since the opening (a shorter
+    run); ``steady = (t_0, t_1)`` imposes the steady window (a block of it);
+    ``record`` replaces ``params.json`` (e.g. another ``cg.w_fields``);
+    ``headline_only`` skips the kernel-width scan and the contact stress.
 
     Returns
     -------
@@ -278,10 +309,10 @@ def silo_analysis(case_dir: str | Path) -> tuple[dict, dict]:
     from .fields import FieldAccumulator
     from .kernels import Gaussian
 
-    case_dir = Path(case_dir)
-    record = json.loads((case_dir / "params.json").read_text())
-    status = json.loads((case_dir / "run" / "status.json").read_text())
+    case_dir, record, status = case_inputs(case_dir, record)
     th = silo_discharge_thermo(pd.read_csv(case_dir / "run" / "thermo.csv"))
+    if t_max is not None:
+        th = th[th["Time"] <= t_max + 1e-9].reset_index(drop=True)
     r_b, R, R_c, dt = record["r_b"], record["R"], record["R_c"], record["dt"]
     cg = record["cg"]
     rho_p = record["density"]
@@ -293,9 +324,12 @@ def silo_analysis(case_dir: str | Path) -> tuple[dict, dict]:
     # the start-up (the first startup_td free-fall times t_d = sqrt(2 r_b/g)) never counts as steady
     t_d = np.sqrt(2 * r_b / record["gravity"])
     after = (flow["t_lo"] >= record["protocol"]["startup_td"] * t_d).to_numpy()
-    t_start, t_end, why = sl.steady_window(flow["t"][after], flow["W_f"][after], window=window,
-                                           fill_height=fill[after],
-                                           min_fill_height=record["protocol"]["empty_height"] * R)
+    if steady is None:
+        t_start, t_end, why = sl.steady_window(flow["t"][after], flow["W_f"][after], window=window,
+                                               fill_height=fill[after],
+                                               min_fill_height=record["protocol"]["empty_height"] * R)
+    else:
+        (t_start, t_end), why = steady, f"imposed window {steady[0]:.4g}-{steady[1]:.4g} s"
     scalars = {"steady_reason": why, "t_start": t_start, "t_end": t_end, "window": window}
     tables = {"flow": flow}
     if not np.isfinite(t_start):
@@ -307,18 +341,20 @@ def silo_analysis(case_dir: str | Path) -> tuple[dict, dict]:
     coords = RZCoordinates((0.0, 0.0))
     nodes = silo_grid(record, cg["node_spacing"])
     main = FieldAccumulator(Gaussian.paper(cg["w_fields"] * r_b, nodes), coords,
-                            fields=("n", "phi", "rho", "u", "sigmak", "pk"), species=species_ids,
+                            fields=("n", "phi", "rho", "u", "sigmak", "pk"),
+                            species=None if headline_only else species_ids,
                             n_blocks=cg["n_blocks"])
     # the scan keeps the partials per size too: the paper's figs 10-12 use w = r_b/2
+    w_scan = [] if headline_only else cg["w_scan"]
     scan = {w: FieldAccumulator(Gaussian.paper(w * r_b, nodes), coords, fields=("phi", "rho", "u", "sigmak", "pk"),
-                                species=species_ids, n_blocks=cg["n_blocks"]) for w in cg["w_scan"]}
+                                species=species_ids, n_blocks=cg["n_blocks"]) for w in w_scan}
     contact = FieldAccumulator(Gaussian.paper(cg["w_contact"] * r_b, silo_grid(record, cg["contact_node_spacing"])),
                                coords, fields=("sigmac", "pc"), n_blocks=cg["n_blocks"])
     accumulators = [main, *scan.values(), contact]
     for acc in accumulators:
         acc.prepare()
     contact_frames = {}
-    for name in status.get("contact_dumps", []):
+    for name in ([] if headline_only else status.get("contact_dumps", [])):
         for cf in read_contact_dump(case_dir / "run" / name):
             if t_start <= cf.timestep * dt <= t_end:
                 contact_frames[cf.timestep] = cf
@@ -345,7 +381,7 @@ def silo_analysis(case_dir: str | Path) -> tuple[dict, dict]:
     axis = sl.axis_profile(tables["fields"], "pk")
     h_c, h_c_se = sl.transition_height(axis["z"], axis["value"], axis["value_se"])
     scalars.update({"h_c": h_c, "h_c_se": h_c_se, "h_c_over_R": h_c / R, "h_c_over_R_se": h_c_se / R})
-    for w in cg["w_scan"]:
+    for w in w_scan:
         ax = sl.axis_profile(tables[f"kinetic_w{w:g}"], "pk")
         hw, hw_se = sl.transition_height(ax["z"], ax["value"], ax["value_se"])
         scalars[f"h_c_over_R_w{w:g}"], scalars[f"h_c_over_R_w{w:g}_se"] = hw / R, hw_se / R

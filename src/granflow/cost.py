@@ -1,0 +1,282 @@
+"""The error-versus-cost study: one fidelity knob at a time around a base case.
+
+The campaign file's ``cost`` section names, per scene, a base rung, changes to
+it (``set``: dotted keys of the scene file) and the values of each knob. This
+module turns that into the list of *runs* (LAMMPS simulations) and *points*
+(one analysed setting each) of ``workflows/rules/cost.smk``:
+
+* simulation knobs (``dt_fraction``, ``stiffness``, ``size``) each need their own
+  run, rendered from the base scene with that one value changed;
+* post-processing knobs (``t_average``, ``bin_width``) reuse the base run: the base
+  run averages for the longest ``t_average`` of the list, and a shorter setting
+  analyses the first part of that window (its cost is the part of the run it needs);
+  a bin or kernel width re-analyses the same frames.
+
+Every knob's list contains the base value, so the base point is shared by all
+knobs. Every variant scene is validated like the scene file itself before
+anything runs.
+"""
+from __future__ import annotations
+
+import copy
+import math
+
+from .config import ConfigError, validate_scene
+
+KNOBS = ("dt_fraction", "stiffness", "size", "t_average", "bin_width")
+POST_KNOBS = ("t_average", "bin_width")
+
+#: scene -> knob -> (dotted rung/scene keys it sets, "set" or "scale", which end is finest, unit label)
+KNOB_TARGETS = {
+    "channel": {
+        "dt_fraction": (["rungs.{r}.dt_fraction"], "set", "min", "dt / t_c"),
+        "stiffness": (["rungs.{r}.k_n"], "set", "max", "k_n, m_p g/d_p"),
+        "size": (["rungs.{r}.W", "rungs.{r}.B", "rungs.{r}.H"], "scale", "max", "factor on W, B, H"),
+        "t_average": (["rungs.{r}.t_average"], "set", "max", "averaging time, √(d_p/g)"),
+        "bin_width": (["rungs.{r}.bin_width"], "set", "min", "bin width, d_p"),
+    },
+    "heap": {
+        "dt_fraction": (["rungs.{r}.dt_fraction"], "set", "min", "dt / t_c"),
+        "stiffness": (["rungs.{r}.t_c"], "set", "min", "contact time t_c, s"),
+        "size": (["rungs.{r}.W", "rungs.{r}.T", "case.feed_rate"], "scale", "max",
+                 "factor on length W, gap T and feed rate"),
+        "t_average": (["rungs.{r}.t_average"], "set", "max", "averaging time, s"),
+        "bin_width": (["rungs.{r}.bin_dz_u"], "set", "min", "velocity depth bin, d̄"),
+    },
+    "silo": {
+        "dt_fraction": (["rungs.{r}.dt_fraction"], "set", "min", "dt / t_c"),
+        "stiffness": (["rungs.{r}.Y_factor"], "set", "max", "Y / Y_paper"),
+        "size": (["rungs.{r}.R_c", "rungs.{r}.fill_height"], "scale", "max", "factor on R_c and fill height"),
+        "t_average": (["rungs.{r}.t_discharge", "rungs.{r}.t_average"], "set", "max", "discharge time used, s"),
+        "bin_width": (["cg.w_fields"], "set", "min", "kernel width w, r_b"),
+    },
+}
+
+
+def fmt(value: float) -> str:
+    """Directory-name form of a knob value: 0.05 -> '0.05', 1e-05 -> '1e-05'."""
+    return f"{float(value):g}"
+
+
+def _get(tree: dict, dotted: str):
+    node = tree
+    for part in dotted.split("."):
+        node = node[part]
+    return node
+
+
+def _put(tree: dict, dotted: str, value) -> None:
+    parts = dotted.split(".")
+    node = tree
+    for part in parts[:-1]:
+        if not isinstance(node.get(part), dict):
+            raise ConfigError(f"cost: {'.'.join(parts[:-1])} is not a mapping of the scene file")
+        node = node[part]
+    node[parts[-1]] = value
+
+
+def base_scene(scene: dict, study: dict, source: str) -> dict:
+    """The scene file with the study's ``set`` changes applied, validated like the file.
+
+    The base run averages for the longest ``t_average`` of the knob list.
+    """
+    out = copy.deepcopy(scene)
+    rung = study["base_rung"]
+    if rung not in out["rungs"]:
+        raise ConfigError(f"{source}.base_rung = {rung!r} is not allowed: allowed one of "
+                          f"{', '.join(out['rungs'])}")
+    for key, value in (study.get("set") or {}).items():
+        try:
+            _get(out, key)
+        except (KeyError, TypeError):
+            raise ConfigError(f"{source}.set.{key} = {value!r} is not allowed: {key!r} is not a key of the "
+                              f"{scene['scene']} scene file") from None
+        _put(out, key, value)
+    return validate_scene(out, source=f"{source}.set")
+
+
+def knob_base_value(scene_name: str, scene: dict, rung: str, knob: str) -> float:
+    """The base case's value of ``knob`` (1 for a size factor)."""
+    keys, mode, _, _ = KNOB_TARGETS[scene_name][knob]
+    return 1.0 if mode == "scale" else float(_get(scene, keys[0].format(r=rung)))
+
+
+def apply_knob(scene_name: str, scene: dict, rung: str, knob: str, value: float) -> dict:
+    """A copy of the base scene with one knob at ``value``."""
+    out = copy.deepcopy(scene)
+    keys, mode, _, _ = KNOB_TARGETS[scene_name][knob]
+    for key in keys:
+        key = key.format(r=rung)
+        new = float(value) * _get(scene, key) if mode == "scale" else float(value)
+        _put(out, key, new)
+    return out
+
+
+class CostStudy:
+    """Runs and points of one scene's study.
+
+    Parameters
+    ----------
+    scene_name : str
+    scene : dict
+        The validated scene file.
+    study : dict
+        The campaign's ``cost.scenes.<scene>`` entry.
+    """
+
+    def __init__(self, scene_name: str, scene: dict, study: dict, source: str = "cost"):
+        self.name = scene_name
+        self.source = f"{source}.scenes.{scene_name}"
+        self.rung = study["base_rung"]
+        self.study = study
+        self.base = base_scene(scene, study, self.source)
+        self.knobs = {k: [float(v) for v in vals] for k, vals in study["knobs"].items() if vals}
+        self.base_values = {k: knob_base_value(scene_name, self.base, self.rung, k) for k in self.knobs}
+        for knob, values in self.knobs.items():
+            b = self.base_values[knob]
+            if not any(math.isclose(v, b, rel_tol=1e-9) for v in values):
+                raise ConfigError(f"{self.source}.knobs.{knob} = {values} is not allowed: the list must contain the "
+                                  f"base case's value {b:g} (from rung {self.rung} after {self.source}.set)")
+        if "t_average" in self.knobs:
+            longest = max(self.knobs["t_average"])
+            self.base_run_scene = apply_knob(scene_name, self.base, self.rung, "t_average", longest)
+        else:
+            self.base_run_scene = self.base
+        self.scenes = {"base": self.base_run_scene}
+        for knob, values in self.knobs.items():
+            if knob in POST_KNOBS:
+                continue
+            for v in values:
+                if self.is_base(knob, v):
+                    continue
+                variant = apply_knob(scene_name, self.base_run_scene, self.rung, knob, v)
+                self.scenes[self.run_name(knob, v)] = validate_scene(
+                    variant, source=f"{self.source}.knobs.{knob} (value {v:g})")
+
+    # ------------------------------------------------------------------ names
+    def is_base(self, knob: str, value: float) -> bool:
+        return math.isclose(float(value), self.base_values[knob], rel_tol=1e-9)
+
+    @staticmethod
+    def run_name(knob: str, value: float) -> str:
+        return f"{knob}~{fmt(value)}"
+
+    def runs(self) -> list[str]:
+        """LAMMPS runs: ``base`` and one per non-base value of a simulation knob."""
+        return list(self.scenes)
+
+    def points(self) -> list[str]:
+        """Analysed settings: ``base`` and one per non-base value of every knob."""
+        out = ["base"]
+        for knob, values in self.knobs.items():
+            out += [self.run_name(knob, v) for v in values if not self.is_base(knob, v)]
+        return out
+
+    def point(self, name: str) -> dict:
+        """What a point is: its knob and value, the run it analyses and the analysis settings."""
+        if name == "base":
+            knob, value = None, None
+        else:
+            knob, raw = name.split("~", 1)
+            value = float(raw)
+        run = name if knob is not None and knob not in POST_KNOBS else "base"
+        t_average = self.base_values.get("t_average", None)
+        if t_average is None:
+            t_average = float(_get(self.base, f"rungs.{self.rung}.t_average"))
+        if knob == "t_average":
+            t_average = value
+        post = {}
+        if knob == "bin_width":
+            keys, _, _, _ = KNOB_TARGETS[self.name]["bin_width"]
+            post = {k.format(r=self.rung): value for k in keys}
+        return {"name": name, "knob": knob, "value": value, "run": run, "t_average": t_average, "post": post}
+
+    def finest(self, knob: str) -> str:
+        return KNOB_TARGETS[self.name][knob][2]
+
+    def unit(self, knob: str) -> str:
+        return KNOB_TARGETS[self.name][knob][3]
+
+
+def post_record(record: dict, post: dict) -> dict:
+    """A parameter record with the post-processing settings of a point (bin or kernel widths).
+
+    ``post`` maps the scene keys (``rungs.<r>.bin_width``, ``cg.w_fields``) to values;
+    the record keeps rung values under ``rung_knobs`` and the silo's ``cg`` at the top.
+    """
+    out = copy.deepcopy(record)
+    for key, value in post.items():
+        parts = key.split(".")
+        if parts[0] == "rungs":
+            out["rung_knobs"][parts[2]] = value
+        else:
+            _put(out, key, value)
+    return out
+
+
+def cost_studies(campaign: dict, scenes: dict[str, dict]) -> dict[str, CostStudy]:
+    """Every scene's study of the campaign's ``cost`` section (scene name -> study)."""
+    section = campaign.get("cost") or {}
+    out = {}
+    for name, study in (section.get("scenes") or {}).items():
+        if not study.get("enabled", True):
+            continue
+        out[name] = CostStudy(name, scenes[name], study)
+    return out
+
+
+__all__ = ["KNOBS", "POST_KNOBS", "KNOB_TARGETS", "CostStudy", "cost_studies", "apply_knob", "base_scene",
+           "post_record", "fmt"]
+
+
+# ------------------------------------------------------------------------- cost records
+def segment_costs(run_dir) -> list[dict]:
+    """Loop time, steps and atom-steps of every segment of a run, from its LAMMPS logs (in run order)."""
+    from pathlib import Path
+
+    from .runner import loop_cost
+
+    logs = sorted(Path(run_dir, "logs").glob("*.log"))
+    order = {"init": 0, "flow": 1, "average": 2}
+    logs.sort(key=lambda p: (order.get(p.stem.split("_")[0], 3), p.stem))
+    out = []
+    for path in logs:
+        text = path.read_text(errors="replace")
+        seconds, atom_steps = loop_cost(text)
+        steps = sum(float(line.split()[8]) for line in text.splitlines() if line.startswith("Loop time of "))
+        out.append({"segment": path.stem, "loop_s": seconds, "steps": steps, "atom_steps": atom_steps})
+    return out
+
+
+def prefix_segments(segments: list[dict], t_average: float, t_segment: float) -> list[dict]:
+    """The segments a run needs for ``t_average`` of averaging: all set-up and flow
+    segments and the first ceil(t_average / t_segment) averaging segments."""
+    n_avg = max(1, math.ceil(t_average / t_segment - 1e-6))
+    out = []
+    for seg in segments:
+        if seg["segment"].startswith("average_") and int(seg["segment"].split("_")[1]) > n_avg:
+            continue
+        out.append(seg)
+    return out
+
+
+def paper_reference(scene_name: str, scene: dict) -> dict:
+    """Particle count and simulated time of the paper rung for the study's case (for the extrapolation)."""
+    from .deck import scene_parameters
+
+    _, context = scene_parameters(scene, "paper")
+    rec = context["record"]
+    rung = rec["rung_knobs"]
+    if scene_name == "channel":
+        n = rec["parameters"]["n_particles"]
+        t = scene["protocol"]["settle_time"] * 1.2 + rung["t_flow_max"] + rung["t_average"]
+        how = "settle + t_flow_max + t_average"
+    elif scene_name == "heap":
+        n = rec["n_particles_estimate"]
+        t = rec["t_steady_estimate"] + rung["t_average"]
+        how = "estimated filling time to a steady heap + t_average (particles at the end)"
+    else:
+        n = rec["n_particles"]
+        t = scene["protocol"]["t_settle_max"] + rung["t_discharge"]
+        how = "longest settling + t_discharge"
+    return {"n_particles": int(n), "sim_time": float(t), "dt": rec["dt"], "how": how}

@@ -1,0 +1,133 @@
+# Error-versus-cost study (`snakemake --cores 2 cost`): per scene, one fidelity knob at
+# a time around a base case (config: the campaign's `cost` section). Simulation knobs
+# get their own run; averaging time and bin/kernel width re-analyse the base run.
+import json
+
+from granflow.cost import paper_reference
+
+COST = f"{RESULTS}/cost"
+COST_STUDIES = CAMPAIGN.get("cost_studies", {})
+COST_SECTION = CAMPAIGN.get("cost") or {}
+COST_RUN = COST + "/{scene}/runs/{run}"
+COST_POINT = COST + "/{scene}/points/{point}"
+
+
+wildcard_constraints:
+    scene="channel|heap|silo",
+    run=r"base|[a-z_]+~[0-9.e+-]+",
+    point=r"base|[a-z_]+~[0-9.e+-]+",
+
+
+def cost_targets():
+    out = []
+    for name in COST_STUDIES:
+        out += [f"{COST}/{name}/{f}" for f in ("within.csv", "error_vs_cost.png")]
+    return out
+
+
+def cost_run_scene_json(wildcards):
+    """The scene of one run (base or one knob changed): a change to it reruns that run only."""
+    return json.dumps(COST_STUDIES[wildcards.scene].scenes[wildcards.run], sort_keys=True)
+
+
+def cost_rung(wildcards):
+    return COST_STUDIES[wildcards.scene].rung
+
+
+def cost_point_run(wildcards):
+    return COST_STUDIES[wildcards.scene].point(wildcards.point)["run"]
+
+
+def cost_point_inputs(wildcards):
+    run = f"{COST}/{wildcards.scene}/runs/{cost_point_run(wildcards)}"
+    return {"params": f"{run}/params.json", "status": f"{run}/run/status.json", "thermo": f"{run}/run/thermo.csv"}
+
+
+def cost_point_json(wildcards):
+    return json.dumps(COST_STUDIES[wildcards.scene].point(wildcards.point), sort_keys=True)
+
+
+def cost_collect_inputs(wildcards):
+    cs = COST_STUDIES[wildcards.scene]
+    base = f"{COST}/{wildcards.scene}"
+    return {
+        "observables": [f"{base}/points/{p}/observables.json" for p in cs.points()],
+        "post_bench": [f"{base}/points/{p}/benchmark.tsv" for p in cs.points()],
+        "sim_bench": [f"{base}/runs/{r}/benchmark.tsv" for r in cs.runs()],
+    }
+
+
+def cost_study_json(wildcards):
+    cs = COST_STUDIES[wildcards.scene]
+    r = cs.base["rungs"][cs.rung]
+    note = {"channel": lambda: f"W = {r['W']:g} d_p, k_n = {r['k_n']:.0e}, dt = {r['dt_fraction']:g} t_c",
+            "heap": lambda: f"W = {r['W']:g} m, T = {r['T'] * 1e3:g} mm, t_c = {r['t_c']:g} s, dt = {r['dt_fraction']:g} t_c",
+            "silo": lambda: f"R_c = {r['R_c']:g} r_b, R = {cs.base['case']['R']:g} r_b, Y = {r['Y_factor']:g} Y_paper, "
+                            f"dt = {r['dt_fraction']:g} t_c"}[wildcards.scene]()
+    return json.dumps({
+        "rung": cs.rung, "base_note": note, "base_values": cs.base_values,
+        "finest": {k: cs.finest(k) for k in cs.knobs}, "units": {k: cs.unit(k) for k in cs.knobs},
+        "noise_sigmas": COST_SECTION.get("noise_sigmas", 2), "tolerances": COST_SECTION.get("tolerances", [0.05, 0.1]),
+        "paper": paper_reference(wildcards.scene, cs.base),
+    }, sort_keys=True)
+
+
+rule cost_render:
+    output:
+        params=COST_RUN + "/params.json",
+    params:
+        scene=cost_run_scene_json,
+        rung=cost_rung,
+    log:
+        COST_RUN + "/logs/render.log",
+    script:
+        "../scripts/cost_render.py"
+
+
+rule cost_simulate:
+    input:
+        params=rules.cost_render.output.params,
+    output:
+        status=COST_RUN + "/run/status.json",
+        thermo=COST_RUN + "/run/thermo.csv",
+    threads: 1
+    benchmark:
+        COST_RUN + "/benchmark.tsv"
+    log:
+        COST_RUN + "/logs/simulate.log",
+    script:
+        "../scripts/simulate.py"
+
+
+rule cost_analyse:
+    input:
+        unpack(cost_point_inputs),
+    output:
+        observables=COST_POINT + "/observables.json",
+    params:
+        point=cost_point_json,
+        n_blocks=COST_SECTION.get("n_blocks", 4),
+    threads: 1
+    benchmark:
+        COST_POINT + "/benchmark.tsv"
+    log:
+        COST_POINT + "/analyse.log",
+    script:
+        "../scripts/cost_analyse.py"
+
+
+rule cost_collect:
+    input:
+        unpack(cost_collect_inputs),
+    output:
+        records=COST + "/{scene}/records.csv",
+        errors=COST + "/{scene}/errors.csv",
+        within=report(COST + "/{scene}/within.csv", caption="../report/cost_table.rst", category="cost"),
+        figure=report(COST + "/{scene}/error_vs_cost.png", caption="../report/cost_figure.rst", category="cost"),
+        summary=COST + "/{scene}/summary.json",
+    params:
+        study=cost_study_json,
+    log:
+        COST + "/{scene}/logs/collect.log",
+    script:
+        "../scripts/cost_collect.py"

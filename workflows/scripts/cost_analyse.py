@@ -1,0 +1,54 @@
+"""Adapter: headline observables of one point of the cost study, with block errors and the cost it took."""
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+sys.stderr = open(snakemake.log[0], "w")
+os.environ.setdefault("NUMBA_NUM_THREADS", str(snakemake.threads))
+from granflow.cost import post_record, prefix_segments, segment_costs  # noqa: E402
+from postproc.headline import measure_with_errors  # noqa: E402
+
+point = json.loads(snakemake.params.point)
+case_dir = Path(snakemake.input.params).parent
+record = post_record(json.loads(Path(snakemake.input.params).read_text()), point["post"])
+status = json.loads(Path(snakemake.input.status).read_text())
+scene = snakemake.wildcards.scene
+
+cpu0 = time.process_time()
+if status["dumps"]:
+    obs = measure_with_errors(scene, case_dir, record, point["t_average"], n_blocks=snakemake.params.n_blocks)
+    note = ""
+else:
+    from postproc.headline import HEADLINE
+
+    obs = {k: {"x": float("nan"), "se": float("nan"), "n_blocks": 0, "label": lab} for k, lab in HEADLINE[scene]}
+    obs["window"] = [float("nan"), float("nan")]
+    note = f"no averaging: {status['status']}: {status.get('reason')}"
+post_cpu = time.process_time() - cpu0
+
+segments = segment_costs(case_dir / "run")
+used = prefix_segments(segments, point["t_average"], record["t_segment"])
+total_loop = sum(s["loop_s"] for s in segments)
+out = {
+    "point": point,
+    "observables": obs,
+    "status": status["status"],
+    "reason": status.get("reason"),
+    "note": note,
+    "max_overlap": status.get("max_overlap"),
+    "nprocs": status.get("nprocs", 1),
+    "dt": record["dt"],
+    "n_particles": max(int(s["atom_steps"] / s["steps"]) for s in used if s["steps"]) if used else 0,
+    "loop_s": sum(s["loop_s"] for s in used),
+    "loop_fraction": (sum(s["loop_s"] for s in used) / total_loop) if total_loop > 0 else float("nan"),
+    "atom_steps": sum(s["atom_steps"] for s in used),
+    "sim_time": sum(s["steps"] for s in used) * record["dt"],
+    "segments": [s["segment"] for s in used],
+    "post_cpu_s_in_script": post_cpu,
+    "provenance": {k: record["rung_knobs"].get(k) for k in ("k_n", "t_c", "Y_factor", "W", "T", "B", "H", "R_c",
+                                                            "fill_height", "dt_fraction") if k in record["rung_knobs"]},
+}
+Path(snakemake.output.observables).write_text(json.dumps(out, indent=2, default=float) + "\n")
+print(json.dumps(out, indent=2, default=float), file=sys.stderr)

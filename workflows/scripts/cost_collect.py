@@ -1,0 +1,72 @@
+"""Adapter: one scene's cost study -> records, errors against the finest setting, the
+"within p" table with the paper-size extrapolation, and the error-against-cost figure."""
+import json
+import sys
+from pathlib import Path
+
+sys.stderr = open(snakemake.log[0], "w")
+import matplotlib  # noqa: E402
+
+matplotlib.use("Agg")
+import pandas as pd  # noqa: E402
+
+from postproc.cost import (cost_scaling, knob_errors, plot_error_vs_cost, summary_markdown,  # noqa: E402
+                           within_table)
+
+study = json.loads(snakemake.params.study)
+scene = snakemake.wildcards.scene
+
+
+def bench(path):
+    """cpu_time (s) and max_rss (MB) of a Snakemake benchmark file."""
+    row = pd.read_csv(path, sep="\t").iloc[-1]
+    return float(row["cpu_time"]), float(row["max_rss"]), float(row["s"])
+
+
+sim_bench = {Path(p).parent.name: bench(p) for p in snakemake.input.sim_bench}
+rows = []
+for obs_path, post_path in zip(snakemake.input.observables, snakemake.input.post_bench):
+    point = json.loads(Path(obs_path).read_text())
+    p = point["point"]
+    sim_cpu, sim_rss, sim_wall = sim_bench[p["run"]]
+    post_cpu, post_rss, _ = bench(post_path)
+    sim_cpu *= point["loop_fraction"] if point["loop_fraction"] == point["loop_fraction"] else 1.0
+    knobs = list(study["base_values"]) if p["knob"] is None else [p["knob"]]
+    for knob in knobs:
+        value = study["base_values"][knob] if p["knob"] is None else p["value"]
+        for key, o in point["observables"].items():
+            if key == "window":
+                continue
+            rows.append({
+                "scene": scene, "knob": knob, "value": value, "is_base": p["knob"] is None,
+                "finest": study["finest"][knob], "unit": study["units"][knob], "point": p["name"], "run": p["run"],
+                "observable": key, "label": o["label"], "x": o["x"], "se": o["se"], "n_blocks": o["n_blocks"],
+                "cpu_s": sim_cpu + post_cpu, "sim_cpu_s": sim_cpu, "post_cpu_s": post_cpu,
+                "loop_s": point["loop_s"], "peak_mb": max(sim_rss, post_rss), "n_particles": point["n_particles"],
+                "atom_steps": point["atom_steps"], "sim_time": point["sim_time"], "dt": point["dt"],
+                "status": point["status"], "note": point["note"], "max_overlap": point["max_overlap"],
+            })
+records = pd.DataFrame(rows)
+records.to_csv(snakemake.output.records, index=False)
+
+errors = knob_errors(records, noise_sigmas=study["noise_sigmas"])
+errors.to_csv(snakemake.output.errors, index=False)
+scaling = cost_scaling(records)
+paper = study["paper"]
+within = within_table(errors, tolerances=tuple(study["tolerances"]), scaling=scaling,
+                      paper={"n_particles": paper["n_particles"], "sim_time": paper["sim_time"]})
+within.insert(len(within.columns), "extrapolation",
+              f"cost x (N'/N)^{scaling['exponent']:.2f} x (t'/t): N' = {paper['n_particles']}, t' = {paper['sim_time']:.4g} "
+              f"({paper['how']}), at this setting's time step; "
+              f"exponent {'measured from the size runs' if scaling['measured'] else 'assumed 1 (fewer than 2 sizes)'}")
+within.to_csv(snakemake.output.within, index=False)
+
+base = records[records["is_base"]].iloc[0]
+footer = (f"cost study · base rung {study['rung']} ({study['base_note']}) · N = {int(base['n_particles'])} · "
+          f"one knob at a time; error against the finest setting run; hollow = inside {study['noise_sigmas']:g}σ noise")
+fig = plot_error_vs_cost(errors, scene, footer)
+fig.savefig(snakemake.output.figure, dpi=110)
+summary = {"scene": scene, "scaling": scaling, "paper": paper, "base": study["base_values"],
+           "markdown": summary_markdown(within, tolerance=min(study["tolerances"]))}
+Path(snakemake.output.summary).write_text(json.dumps(summary, indent=2, default=float) + "\n")
+print(summary["markdown"], file=sys.stderr)

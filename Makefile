@@ -7,12 +7,13 @@ BIN    := $(VENV)/bin
 CORES  ?= 2
 STAMP  := $(VENV)/.installed
 
-.PHONY: venv demo test report bench clean-results help
+.PHONY: venv demo test report cost bench clean-results help
 
 help:
 	@echo "make demo   - install into .venv and run the default campaign (snakemake --cores $(CORES))"
 	@echo "make test   - install into .venv and run the tests"
 	@echo "make report - build report.html from finished results"
+	@echo "make cost   - run the error-versus-cost study (snakemake cost, ~1 h on 2 cores) and add it to report.html"
 	@echo "make bench  - run the benchmarks in bench/ (by hand; results are recorded, not asserted)"
 
 $(STAMP): requirements.txt pyproject.toml
@@ -33,6 +34,10 @@ test: $(STAMP)
 
 report: $(STAMP)
 	$(BIN)/snakemake --cores $(CORES) --report report.html
+
+cost: $(STAMP)
+	$(BIN)/snakemake --cores $(CORES) cost
+	$(BIN)/snakemake --cores $(CORES) --report report.html all cost
 
 bench: $(STAMP)
 	$(BIN)/python bench/bench_channel.py

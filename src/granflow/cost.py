@@ -231,7 +231,9 @@ __all__ = ["KNOBS", "POST_KNOBS", "KNOB_TARGETS", "CostStudy", "cost_studies", "
 
 # ------------------------------------------------------------------------- cost records
 def segment_costs(run_dir) -> list[dict]:
-    """Loop time, steps and atom-steps of every segment of a run, from its LAMMPS logs (in run order)."""
+    """Loop time, steps and atom-steps of every segment of a run, from its LAMMPS logs (in run order),
+    with the CPU-seconds and peak memory the runner measured for it (NaN if not recorded)."""
+    import json
     from pathlib import Path
 
     from .runner import loop_cost
@@ -244,7 +246,10 @@ def segment_costs(run_dir) -> list[dict]:
         text = path.read_text(errors="replace")
         seconds, atom_steps = loop_cost(text)
         steps = sum(float(line.split()[8]) for line in text.splitlines() if line.startswith("Loop time of "))
-        out.append({"segment": path.stem, "loop_s": seconds, "steps": steps, "atom_steps": atom_steps})
+        usage = path.with_suffix(".usage.json")
+        u = json.loads(usage.read_text()) if usage.exists() else {}
+        out.append({"segment": path.stem, "loop_s": seconds, "steps": steps, "atom_steps": atom_steps,
+                    "cpu_s": u.get("cpu_s", float("nan")), "peak_rss_mb": u.get("peak_rss_mb", float("nan"))})
     return out
 
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -190,8 +191,10 @@ class CaseRunner:
         for k, v in variables.items():
             cmd += ["-var", k, str(v)]
         t0 = time.time()
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         with open(screen_path, "w") as screen:
             proc = subprocess.run(cmd, cwd=self.run_dir, stdout=screen, stderr=subprocess.STDOUT)
+        self._record_usage(name, before, time.time() - t0)
         text = (log_path.read_text(errors="replace") if log_path.exists() else "") + "\n" + \
             screen_path.read_text(errors="replace")
         bad = error_line(text)
@@ -207,6 +210,25 @@ class CaseRunner:
         perf = performance(text)
         log(f"{name}: {time.time() - t0:.1f} s" + (f", {max(perf):.2f} Matom-step/s" if perf else ""))
         return log_path
+
+    def _record_usage(self, name: str, before, wall: float) -> None:
+        """CPU-seconds (all ranks, user + system) and peak memory of one LAMMPS invocation,
+        in ``logs/<segment>.usage.json`` beside its log (kept across resumptions).
+
+        From ``getrusage(RUSAGE_CHILDREN)``, which counts every waited-for descendant
+        (mpirun and its LAMMPS ranks); its ``ru_maxrss`` is the largest single process
+        seen so far (KiB on Linux), an upper bound of this segment's peak rank.
+        """
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+        usage = {"cpu_s": cpu, "wall_s": wall, "peak_rss_mb": after.ru_maxrss / 1024.0, "nprocs": self.nprocs}
+        (self.log_dir / f"{name}.usage.json").write_text(json.dumps(usage) + "\n")
+
+    def usage(self) -> dict:
+        """CPU-seconds, wall seconds and peak memory of every LAMMPS invocation of this run so far."""
+        parts = [json.loads(p.read_text()) for p in sorted(self.log_dir.glob("*.usage.json"))]
+        return {"cpu_seconds": sum(u["cpu_s"] for u in parts), "wall_seconds": sum(u["wall_s"] for u in parts),
+                "peak_rss_mb": max((u["peak_rss_mb"] for u in parts), default=float("nan"))}
 
     def _segment(self, deck: str, name: str, restart_in: Path | None, extra: dict | None = None) -> Path:
         """Run a segment unless its restart exists; return the restart path."""
@@ -345,6 +367,7 @@ class CaseRunner:
             "loop_seconds": loop_seconds,
             "atom_steps": atom_steps,
             "nprocs": self.nprocs,
+            **self.usage(),
         }
         (self.run_dir / "status.json").write_text(json.dumps(out, indent=2) + "\n")
         log(f"status {status}: {reason}; largest overlap {max_overlap:.3g} d_min, "

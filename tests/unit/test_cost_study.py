@@ -104,8 +104,10 @@ def test_segment_costs_and_prefix(tmp_path):
     _log(logs / "flow_001.log", [(2.0, 200, 10), (0.5, 10, 10)])
     for k in (1, 2, 3):
         _log(logs / f"average_{k:03d}.log", [(3.0, 300, 20)])
+    (logs / "init.usage.json").write_text('{"cpu_s": 1.25, "wall_s": 1.3, "peak_rss_mb": 80.0, "nprocs": 1}')
     segs = segment_costs(tmp_path)
     assert [s["segment"] for s in segs] == ["init", "flow_001", "average_001", "average_002", "average_003"]
+    assert segs[0]["cpu_s"] == 1.25 and segs[0]["peak_rss_mb"] == 80.0 and np.isnan(segs[1]["cpu_s"])
     assert segs[1]["loop_s"] == 2.5 and segs[1]["steps"] == 210 and segs[1]["atom_steps"] == 2100
     used = prefix_segments(segs, t_average=1.5, t_segment=1.0)   # needs two averaging segments
     assert [s["segment"] for s in used] == ["init", "flow_001", "average_001", "average_002"]

@@ -45,3 +45,29 @@ def test_thermo_ignores_killed_segments(root, tmp_path):
     assert set(th["segment"]) == {"flow_001"}
     assert runner.thermo("flow", upto=0).empty
     assert isinstance(th, pd.DataFrame) and len(th) == 3
+
+
+def test_cpu_of_lammps_descendants_is_recorded_per_segment(tmp_path):
+    """The runner charges a segment the CPU time of every process under mpirun (here a fake
+    mpirun whose child burns 0.3 CPU-seconds), and keeps it beside the segment's log."""
+    import stat
+    import sys
+
+    from granflow.runner import Tools
+
+    fake = tmp_path / "mpirun"
+    fake.write_text(
+        f"#!{sys.executable}\n"
+        "import subprocess, sys\n"
+        "burn = 'import time\\nwhile time.process_time() < 0.3: pass'\n"
+        "subprocess.run([sys.executable, '-c', burn], check=True)\n"
+    )
+    fake.chmod(fake.stat().st_mode | stat.S_IEXEC)
+    (tmp_path / "params.json").write_text(json.dumps({"protocol": {}}))
+    (tmp_path / "run").mkdir()
+    runner = CaseRunner(tmp_path, tools=Tools(lmp="lmp", mpirun=str(fake)))
+    runner._lammps("init.lmp", "init", {})
+    usage = json.loads((tmp_path / "run" / "logs" / "init.usage.json").read_text())
+    assert usage["cpu_s"] >= 0.3 and usage["peak_rss_mb"] > 0 and usage["wall_s"] >= usage["cpu_s"] * 0.5
+    total = runner.usage()
+    assert total["cpu_seconds"] == usage["cpu_s"] and total["peak_rss_mb"] == usage["peak_rss_mb"]

@@ -23,14 +23,16 @@ def bench(path):
     return float(row["cpu_time"]), float(row["max_rss"]), float(row["s"])
 
 
-sim_bench = {Path(p).parent.name: bench(p) for p in snakemake.input.sim_bench}
+sim_wall = {Path(p).parent.name: bench(p)[2] for p in snakemake.input.sim_bench}
 rows = []
 for obs_path, post_path in zip(snakemake.input.observables, snakemake.input.post_bench):
     point = json.loads(Path(obs_path).read_text())
     p = point["point"]
-    sim_cpu, sim_rss, sim_wall = sim_bench[p["run"]]
+    # simulation: CPU-seconds of the LAMMPS processes of the segments this point needs (measured
+    # by the runner; Snakemake's benchmark of the rule does not see the short-lived MPI children);
+    # post-processing: Snakemake's benchmark of the analysis job
+    sim_cpu, sim_rss = point["sim_cpu_s"], point["peak_rss_mb"]
     post_cpu, post_rss, _ = bench(post_path)
-    sim_cpu *= point["loop_fraction"] if point["loop_fraction"] == point["loop_fraction"] else 1.0
     knobs = list(study["base_values"]) if p["knob"] is None else [p["knob"]]
     for knob in knobs:
         value = study["base_values"][knob] if p["knob"] is None else p["value"]
@@ -42,7 +44,7 @@ for obs_path, post_path in zip(snakemake.input.observables, snakemake.input.post
                 "finest": study["finest"][knob], "unit": study["units"][knob], "point": p["name"], "run": p["run"],
                 "observable": key, "label": o["label"], "x": o["x"], "se": o["se"], "n_blocks": o["n_blocks"],
                 "cpu_s": sim_cpu + post_cpu, "sim_cpu_s": sim_cpu, "post_cpu_s": post_cpu,
-                "loop_s": point["loop_s"], "peak_mb": max(sim_rss, post_rss), "n_particles": point["n_particles"],
+                "loop_s": point["loop_s"], "run_wall_s": sim_wall[p["run"]], "peak_mb": max(sim_rss, post_rss), "n_particles": point["n_particles"],
                 "atom_steps": point["atom_steps"], "sim_time": point["sim_time"], "dt": point["dt"],
                 "status": point["status"], "note": point["note"], "max_overlap": point["max_overlap"],
             })

@@ -284,4 +284,20 @@ def paper_reference(scene_name: str, scene: dict) -> dict:
         n = rec["n_particles"]
         t = scene["protocol"]["t_settle_max"] + rung["t_discharge"]
         how = "longest settling + t_discharge"
-    return {"n_particles": int(n), "sim_time": float(t), "dt": rec["dt"], "how": how}
+    return {"n_particles": int(n), "sim_time": float(t), "dt": rec["dt"],
+            "dt_fraction": rec["dt"] / rec["parameters"]["t_c_min"], "how": how}
+
+
+def paper_time_step(knob: str | None, value: float | None, dt_run: float, base_dt_fraction: float,
+                    paper: dict) -> float:
+    """The time step a paper-size run would take with one knob at ``value``.
+
+    The paper rung's own step, except for the knob's own setting: a time-step fraction
+    ``value`` of the paper's contact time, or the paper's fraction of this run's
+    (softer or stiffer) contact time.
+    """
+    if knob == "dt_fraction":
+        return paper["dt"] * value / paper["dt_fraction"]
+    if knob == "stiffness":
+        return dt_run * paper["dt_fraction"] / base_dt_fraction
+    return paper["dt"]

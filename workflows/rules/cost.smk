@@ -65,7 +65,7 @@ def cost_study_json(wildcards):
             "silo": lambda: f"R_c = {r['R_c']:g} r_b, R = {cs.base['case']['R']:g} r_b, Y = {r['Y_factor']:g} Y_paper, "
                             f"dt = {r['dt_fraction']:g} t_c"}[wildcards.scene]()
     return json.dumps({
-        "rung": cs.rung, "base_note": note, "base_values": cs.base_values,
+        "rung": cs.rung, "base_note": note, "base_values": cs.base_values, "base_dt_fraction": r["dt_fraction"],
         "finest": {k: cs.finest(k) for k in cs.knobs}, "units": {k: cs.unit(k) for k in cs.knobs},
         "noise_sigmas": COST_SECTION.get("noise_sigmas", 2), "tolerances": COST_SECTION.get("tolerances", [0.05, 0.1]),
         "paper": paper_reference(wildcards.scene, cs.base),

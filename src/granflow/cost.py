@@ -214,18 +214,7 @@ def post_record(record: dict, post: dict) -> dict:
     return out
 
 
-def cost_studies(campaign: dict, scenes: dict[str, dict]) -> dict[str, CostStudy]:
-    """Every scene's study of the campaign's ``cost`` section (scene name -> study)."""
-    section = campaign.get("cost") or {}
-    out = {}
-    for name, study in (section.get("scenes") or {}).items():
-        if not study.get("enabled", True):
-            continue
-        out[name] = CostStudy(name, scenes[name], study)
-    return out
-
-
-__all__ = ["KNOBS", "POST_KNOBS", "KNOB_TARGETS", "CostStudy", "cost_studies", "apply_knob", "base_scene",
+__all__ = ["KNOBS", "POST_KNOBS", "KNOB_TARGETS", "CostStudy", "apply_knob", "base_scene",
            "post_record", "fmt"]
 
 

@@ -2,7 +2,6 @@
 import json
 import os
 import sys
-import time
 from pathlib import Path
 
 sys.stderr = open(snakemake.log[0], "w")
@@ -16,7 +15,6 @@ record = post_record(json.loads(Path(snakemake.input.params).read_text()), point
 status = json.loads(Path(snakemake.input.status).read_text())
 scene = snakemake.wildcards.scene
 
-cpu0 = time.process_time()
 # a jammed or unstable run has no flow to measure, even where the deck averaged anyway
 if status["dumps"] and status["status"] not in ("jammed", "unstable"):
     obs = measure_with_errors(scene, case_dir, record, point["t_average"], n_blocks=snakemake.params.n_blocks)
@@ -27,11 +25,9 @@ else:
     obs = {k: {"x": float("nan"), "se": float("nan"), "n_blocks": 0, "label": lab} for k, lab in HEADLINE[scene]}
     obs["window"] = [float("nan"), float("nan")]
     note = f"not measured: {status['status']}: {status.get('reason')}"
-post_cpu = time.process_time() - cpu0
 
 segments = segment_costs(case_dir / "run")
 used = prefix_segments(segments, point["t_average"], record["t_segment"])
-total_loop = sum(s["loop_s"] for s in segments)
 # particles of a run that stopped before any loop finished: the planned number
 planned = int(record.get("n_particles") or record.get("n_particles_estimate") or record["parameters"].get("n_particles", 0))
 out = {
@@ -48,11 +44,9 @@ out = {
     # measured by the runner for each LAMMPS invocation (all ranks, user + system)
     "sim_cpu_s": sum(s["cpu_s"] for s in used),
     "peak_rss_mb": max((s["peak_rss_mb"] for s in used), default=float("nan")),
-    "loop_fraction": (sum(s["loop_s"] for s in used) / total_loop) if total_loop > 0 else float("nan"),
     "atom_steps": sum(s["atom_steps"] for s in used),
     "sim_time": sum(s["steps"] for s in used) * record["dt"],
     "segments": [s["segment"] for s in used],
-    "post_cpu_s_in_script": post_cpu,
     "provenance": {k: record["rung_knobs"].get(k) for k in ("k_n", "t_c", "Y_factor", "W", "T", "B", "H", "R_c",
                                                             "fill_height", "dt_fraction") if k in record["rung_knobs"]},
 }

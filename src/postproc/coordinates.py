@@ -32,44 +32,52 @@ import numpy as np
 
 from .frame import ParticleFrame
 
+_AXES = ("x", "y", "z")
+
 
 class XCoordinates:
-    """Profiles across a channel: resolve :math:`x`, integrate over :math:`y` and :math:`z`.
+    """Profiles along one Cartesian axis: resolve it, integrate over the other two.
 
-    The volume of a slab :math:`[x_\\mathrm{lo}, x_\\mathrm{hi})` is
+    By default the axis is :math:`x` (across a channel); ``axis="z"`` gives
+    profiles in height (e.g. across a flowing layer). The volume of a slab
+    :math:`[x_\\mathrm{lo}, x_\\mathrm{hi})` is
 
     .. math::
 
         V = (x_\\mathrm{hi} - x_\\mathrm{lo})\\, L_y L_z
 
-    with :math:`L_y, L_z` the frame's box lengths.
+    with :math:`L_y, L_z` the frame's box lengths along the two other axes.
 
     Parameters
     ----------
     walls : (float, float), optional
-        Wall positions bounding :math:`x`, e.g. ``(0, W)``; the extent that
+        Wall positions bounding the axis, e.g. ``(0, W)``; the extent that
         channel bins are built on (:func:`postproc.kernels.channel_bin_edges`).
+    axis : {"x", "y", "z"}
+        The resolved axis (its name is the node column of result tables).
     """
 
     kind = "x"
-    names = ("x",)
     components = ("x", "y", "z")
 
-    def __init__(self, walls: tuple[float, float] | None = None):
+    def __init__(self, walls: tuple[float, float] | None = None, axis: str = "x"):
+        if axis not in _AXES:
+            raise ValueError(f"axis {axis!r} is not one of {', '.join(_AXES)}")
         if walls is not None:
             walls = (float(walls[0]), float(walls[1]))
             if walls[1] <= walls[0]:
                 raise ValueError(f"walls {walls} must be increasing")
         self.walls = walls
+        self.axis = _AXES.index(axis)
+        self.names = (axis,)
 
     def points(self, frame: ParticleFrame) -> np.ndarray:
-        """Particle :math:`x`, shape (N, 1)."""
+        """Particle coordinate along the axis, shape (N, 1)."""
         return self.map(frame.position)
 
-    @staticmethod
-    def map(positions) -> np.ndarray:
-        """:math:`x` of positions ``(N, 3)``, shape (N, 1)."""
-        return np.asarray(positions, dtype=float).reshape(-1, 3)[:, :1]
+    def map(self, positions) -> np.ndarray:
+        """The axis coordinate of positions ``(N, 3)``, shape (N, 1)."""
+        return np.asarray(positions, dtype=float).reshape(-1, 3)[:, self.axis : self.axis + 1]
 
     @staticmethod
     def local_vectors(positions, vectors) -> np.ndarray:
@@ -81,11 +89,11 @@ class XCoordinates:
         """Cartesian components unchanged."""
         return np.asarray(tensors, dtype=float)
 
-    @staticmethod
-    def transverse_area(box) -> float:
-        """Cross-section :math:`A = L_y L_z` of the box, area units."""
+    def transverse_area(self, box) -> float:
+        """Cross-section of the box normal to the axis (:math:`L_y L_z` for x), area units."""
         box = np.asarray(box, dtype=float)
-        return float((box[1, 1] - box[1, 0]) * (box[2, 1] - box[2, 0]))
+        lengths = box[:, 1] - box[:, 0]
+        return float(np.prod([lengths[k] for k in range(3) if k != self.axis]))
 
     def cell_volumes(self, edges: Sequence[np.ndarray], box) -> np.ndarray:
         """Slab volumes :math:`\\Delta x\\, L_y L_z`."""

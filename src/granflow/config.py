@@ -316,8 +316,8 @@ def _check_channel_sweep(sc: dict, scene: dict, rung: str, path: str) -> None:
 
 def _check_heap_sweep(sc: dict, scene: dict, rung: str, path: str) -> None:
     """Every heap sweep point: a known mixture, and a feed rate the feed zone can deliver."""
-    from .heap import feed_plan  # deferred: the deck package imports this module
     from .preflight import PreflightError
+    from .scenes.heap.parameters import feed_plan  # deferred: the deck package imports this module
 
     for mix in sc["sweep"].get("mixture", [scene["case"]["mixture"]]):
         _check(mix in scene["particles"]["mixtures"],

@@ -15,10 +15,12 @@ from pathlib import Path
 import jinja2
 
 from .config import PROJECT_ROOT, check_rung
-from .contact import ContactModel, build_contact_model, sphere_mass
-from .preflight import PreflightError, check_time_step, neighbor_settings
+from .contact import ContactModel
+from .preflight import PreflightError
 
+#: shared include snippets; each scene's templates live in its package
 TEMPLATE_DIR = PROJECT_ROOT / "lammps_inputs"
+SCENES_DIR = Path(__file__).resolve().parent / "scenes"
 STAGES = ("init", "flow", "average")
 SPIN_COLUMNS = ["omegax", "omegay", "omegaz"]
 STRESS_COLUMNS = [f"c_stress[{k}]" for k in range(1, 7)]
@@ -42,7 +44,7 @@ def _number(value) -> float | int:
 
 def environment() -> jinja2.Environment:
     return jinja2.Environment(
-        loader=jinja2.FileSystemLoader(str(TEMPLATE_DIR)),
+        loader=jinja2.FileSystemLoader([str(TEMPLATE_DIR)] + sorted(str(p) for p in SCENES_DIR.iterdir() if p.is_dir())),
         undefined=jinja2.StrictUndefined,
         trim_blocks=True,
         lstrip_blocks=True,
@@ -105,150 +107,18 @@ def time_step(rung: dict, model: ContactModel) -> float:
     return rung["dt_fraction"] * model.stiffest.t_c
 
 
-def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tuple[list[Param], dict]:
-    """All numbers of a channel deck, and the template context besides them.
-
-    Raises
-    ------
-    PreflightError
-        If the time step does not resolve the stiffest contact.
-    """
-    rung = check_rung(scene, rung_name)
-    case = case_values(scene, rung_name, case)
-    model = build_contact_model(scene, rung)
-    dt = time_step(rung, model)
-    check_time_step(dt, model, scene["contact"]["dt_max_fraction"])
-
-    p = scene["particles"]
-    eff = scene["effects"]
-    diameters = p["diameters"] if eff["polydisperse"] else [1.0]
-    fractions = p["number_fractions"] if eff["polydisperse"] else [1.0]
-    v_mean = sum(f * math.pi * d**3 / 6 for d, f in zip(diameters, fractions))
-    W, B, H = float(case["W"]), float(rung["B"]), float(rung["H"])
-    n_particles = int(round(case["phi_mean"] * W * B * H / v_mean))
-    counts = species_counts(n_particles, fractions)
-    v_particles = sum(n * math.pi * d**3 / 6 for n, d in zip(counts, diameters))
-    H_per = v_particles / (case["phi_mean"] * W * B)
-    # lattice of the raining gas: cells of about v_mean/fill_packing, never
-    # narrower than the largest diameter; enough layers for n_particles sites
-    fill = scene["protocol"]["fill_packing"]
-    d_max = max(diameters)
-    a = max((v_mean / fill) ** (1 / 3), 1.02 * d_max)
-    nx, nz = max(1, int((W - 1.2) // a)), max(1, int(B // a))
-    a_x, a_z = (W - 1.2) / nx, B / nz
-    if min(a_x, a_z) < d_max:
-        raise PreflightError(f"channel W = {W:g}, B = {B:g} too small for one lattice cell of {d_max:g} d_p")
-    n_layers = math.ceil(n_particles / (nx * nz))
-    fill_height = 1.2 + n_layers * a + 1.0
-
-    # the fastest expected motion: free fall of the gas from the top of the fill
-    # region, three times over for collisions and the flow
-    v_max = 3.0 * math.sqrt(2.0 * fill_height)
-    skin = scene["contact"]["neighbor_skin"]
-    neigh = neighbor_settings(diameters, skin, dt, v_max)
-
-    def steps(t: float) -> int:
-        return max(1, int(round(t / dt)))
-
-    # Segments and dump intervals are whole multiples of the thermo interval, so
-    # every thermo row closes a full interval of the every-step wall-force average.
-    n_thermo = steps(rung["thermo_interval"])
-
-    def thermo_multiple(t: float) -> int:
-        return n_thermo * max(1, int(round(t / dt / n_thermo)))
-
-    params = [
-        Param("W", W, "channel width (walls at x = 0 and x = W), d_p"),
-        Param("B", B, "spanwise periodic depth (z), d_p"),
-        Param("H_nominal", H, "nominal periodic height; the deck sets H = V_particles/(phi_mean W B)"),
-        Param("phi_mean", _number(case["phi_mean"]), "mean volume fraction phi-bar"),
-        Param("n_particles", n_particles, "particles inserted: phi_mean W B H_nominal / <pi d^3/6>"),
-        Param("H_per", round(H_per, 9), "periodic height V_particles/(phi_mean W B), d_p"),
-        Param("fill_height", round(fill_height, 6), "box height while the gas rains, d_p"),
-        Param("d_max", d_max, "largest diameter, d_p"),
-        Param("d_min", min(diameters), "smallest diameter, d_p"),
-        Param("max_overlap", scene["guards"]["max_overlap"], "halt: largest overlap / d_min above this"),
-        Param("max_speed", scene["guards"]["max_speed"], "halt: rms particle speed above this, sqrt(g d_p)"),
-        Param("a_x", round(a_x, 9), "gas lattice cell along x, d_p"),
-        Param("a_y", round(a, 9), "gas lattice cell along y, d_p"),
-        Param("a_z", round(a_z, 9), "gas lattice cell along z, d_p"),
-        Param("n_layers", n_layers, "lattice layers of the gas"),
-        Param("jiggle", round(0.45 * (min(a_x, a, a_z) - d_max), 9), "random displacement of gas particles, d_p"),
-        Param("density", p["density"], "material density, m_p/d_p^3 (a d_p sphere has mass 1)"),
-        Param("seed", int(case["seed"]), "random seed of insertion and species assignment"),
-        Param("k_n", model.k_n, "normal stiffness, m_p g/d_p"),
-        Param("k_t", round(model.k_t, 9), "tangential stiffness k_t = kt_over_kn k_n"),
-        Param("xi_n", round(model.xi_n, 9), f"normal damping rate (x m_eff): e_n = {scene['contact']['e_n']} for a d_p pair"),
-        Param("xi_t", round(model.xi_t, 9), "tangential damping rate xi_t = xi_t_over_xi_n xi_n"),
-        Param("friction", model.friction, "particle-particle sliding friction mu_p"),
-        Param("wall_friction", model.wall_friction, "particle-wall sliding friction"),
-        Param("fill_friction", scene["protocol"]["fill_friction"], "friction while the bed settles"),
-        Param("t_c_min", round(model.stiffest.t_c, 9), f"shortest contact time ({model.stiffest.name}), sqrt(d_p/g)"),
-        Param("dt", round(dt, 10), f"time step = {dt / model.stiffest.t_c:.4g} t_c_min"),
-        Param("skin", skin, "neighbour skin, d_p (>= 2 v_max dt; bin size from the largest cutoff)"),
-        Param("neigh_one", neigh["neigh_one"], f"max neighbours per particle (size ratio {neigh['size_ratio']:.3g})"),
-        Param("neigh_page", neigh["neigh_page"], "neighbour page size (>= 10 neigh_one)"),
-        Param("n_settle", steps(scene["protocol"]["settle_time"]), "steps to settle the rained bed"),
-        Param("lid_speed", 0.2, "speed of the compressing lid, d_p/sqrt(d_p/g)"),
-        Param("n_relax", steps(0.2 * scene["protocol"]["settle_time"]), "steps to relax the bed under the lid (0.2 settle_time)"),
-        Param("n_segment", thermo_multiple(rung["t_segment"]), "steps per flow/averaging segment"),
-        Param("n_thermo", n_thermo, "steps between thermo samples"),
-        Param("n_dump", thermo_multiple(rung["dump_interval"]), "steps between dumped frames"),
-    ]
-    for prm in params:
-        _number(prm.value)
-
-    n_types = len(diameters)
-    species_split = [{"to_type": i + 1, "count": counts[i]} for i in range(1, n_types)]
-    columns = list(eff["dump_columns"])
-    if eff["spin_output"]:
-        columns += SPIN_COLUMNS
-    if eff["per_atom_stress"]:
-        columns += STRESS_COLUMNS
-    context = {
-        "scene": "channel",
-        "rung": rung_name,
-        "units_note": "lj: length d_p, mass m_p, time sqrt(d_p/g)",
-        "effects": eff,
-        "ntypes": n_types,
-        "species": [{"type": i + 1, "diameter": d} for i, d in enumerate(diameters)],
-        "species_split": species_split,
-        "dump_columns": columns,
-    }
-    record = {
-        "scene": "channel",
-        "rung": rung_name,
-        "case": case,
-        "rung_knobs": rung,
-        "parameters": {prm.name: prm.value for prm in params},
-        "contacts": [
-            {"name": c.name, "m_eff": c.m_eff, "t_c": c.t_c, "e_n": c.e_n} for c in model.contacts
-        ],
-        "n_flow_segments": max(1, math.ceil(rung["t_flow_max"] / rung["t_segment"] - 1e-9)),
-        "n_average_segments": max(1, math.ceil(rung["t_average"] / rung["t_segment"] - 1e-9)),
-        "dt": dt,
-        "t_segment": thermo_multiple(rung["t_segment"]) * dt,
-        "dump_columns": columns,
-        "density": p["density"],
-        "species": [{"type": i + 1, "diameter": d, "count": counts[i], "mass": sphere_mass(d, p["density"])}
-                    for i, d in enumerate(diameters)],
-        "effects": eff,
-        "protocol": scene["protocol"],
-        "guards": scene["guards"],
-    }
-    return params, {**context, "record": record}
-
-
 def scene_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tuple[list[Param], dict]:
     """Deck numbers and template context of any scene."""
     if scene["scene"] == "heap":
-        from .heap import heap_parameters  # the heap module builds on this one
+        from .scenes.heap.parameters import heap_parameters  # the heap module builds on this one
 
         return heap_parameters(scene, rung_name, case)
     if scene["scene"] == "silo":
-        from .silo import silo_parameters
+        from .scenes.silo.parameters import silo_parameters
 
         return silo_parameters(scene, rung_name, case)
+    from .scenes.channel.parameters import channel_parameters
+
     return channel_parameters(scene, rung_name, case)
 
 
@@ -265,7 +135,7 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     if data_files:
-        from .silo import write_gas_data
+        from .scenes.silo.parameters import write_gas_data
 
         for name, args in data_files.items():
             write_gas_data(outdir / name, *args)
@@ -278,4 +148,4 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     return record
 
 
-__all__ = ["render_case", "scene_parameters", "channel_parameters", "PreflightError", "STAGES"]
+__all__ = ["render_case", "scene_parameters", "PreflightError", "STAGES"]

@@ -327,7 +327,7 @@ class CaseRunner:
         """A scene's named reason to end its schedule after segment ``j`` (the silo: clogged, emptied)."""
         if self.record.get("scene") != "silo":
             return None
-        from .silo import discharge_verdict
+        from .scenes.silo.parameters import discharge_verdict
 
         th = self.thermo("average", upto=j)
         return discharge_verdict(th[th["segment"] == f"average_{j:03d}"] if not th.empty else None,

@@ -44,7 +44,7 @@ from typing import Callable, Iterator, Sequence
 
 import numpy as np
 
-from postproc.frame import DumpFrame
+from postproc.frame import DumpFrame, ParticleFrame
 
 __all__ = [
     "DumpError",
@@ -569,3 +569,22 @@ def count_frames(path: str | os.PathLike) -> int:
             return 0
         with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
             return sum(1 for _ in _BinaryScanner(spath, mm).headers())
+
+
+
+def particle_frames(paths, dt: float | None = None, t_window: tuple[float, float] | None = None):
+    """ParticleFrames from a sequence of dump files, in order.
+
+    With ``t_window = (lo, hi)`` (and the time step ``dt``) only the frames with
+    ``lo <= t - t_0 < hi`` are yielded, ``t_0`` being the time of the first frame:
+    a block or a prefix of the averaging window.
+    """
+    t0 = None
+    for path in paths:
+        for frame in read_dump(path):
+            if t_window is not None:
+                t = frame.timestep * dt
+                t0 = t if t0 is None else t0
+                if not t_window[0] - 1e-9 * abs(t) <= t - t0 < t_window[1] - 1e-9 * abs(t):
+                    continue
+            yield ParticleFrame.from_dump(frame)

@@ -7,8 +7,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from granflow.scenes.channel.pipeline import momentum_balance
 from postproc.dump import read_dump
-from postproc.pipeline import momentum_balance
 
 pytestmark = pytest.mark.lammps
 BIN = Path(sys.executable).parent

@@ -3,7 +3,6 @@ simulation knob (dt) and of a post-processing knob (averaging time), through the
 import json
 import subprocess
 import sys
-
 from pathlib import Path
 
 import pandas as pd

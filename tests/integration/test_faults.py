@@ -1,9 +1,7 @@
 """Faults lose nothing: a killed run resumes; a damaged dump fails loudly and
 leaves nothing downstream marked complete."""
 import copy
-import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -16,8 +14,8 @@ import pytest
 
 from granflow.deck import render_case
 from granflow.runner import run_case
+from granflow.scenes.channel.pipeline import channel_profile
 from postproc.dump import DumpError
-from postproc.pipeline import channel_profile
 
 pytestmark = pytest.mark.lammps
 BIN = Path(sys.executable).parent

@@ -5,8 +5,8 @@ import copy
 import pytest
 
 from granflow.contact import build_contact_model
-from granflow.deck import channel_parameters
 from granflow.preflight import PreflightError
+from granflow.scenes.channel.parameters import channel_parameters
 
 pytestmark = pytest.mark.lammps
 

@@ -6,8 +6,8 @@ import re
 import pytest
 
 from granflow.deck import render_case
-from granflow.heap import feed_plan
 from granflow.preflight import PreflightError
+from granflow.scenes.heap.parameters import feed_plan
 
 pytestmark = pytest.mark.lammps
 

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from postproc.pipeline import silo_discharge_thermo
+from granflow.scenes.silo.pipeline import silo_discharge_thermo
 
 BIN = Path(sys.executable).parent
 RADII = ["3.5", "4"]

@@ -12,8 +12,8 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.integrate import quad
 
-from postproc import channel as ch
-from postproc import plots
+from granflow.scenes.channel import analysis as ch
+from granflow.scenes.channel import figures as plots
 from postproc.steady import block_average, detect_steady_state
 
 U_SLIP, U_MAX, DELTA = 1.0, 1.4, 15.0  # analytic parameters of eq. (3.1), sqrt(g d_p) and d_p

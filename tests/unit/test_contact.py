@@ -4,8 +4,8 @@ import math
 import pytest
 
 from granflow.contact import build_contact_model, contact_time, damping_for_restitution
-from granflow.deck import channel_parameters
 from granflow.preflight import PreflightError
+from granflow.scenes.channel.parameters import channel_parameters
 
 
 def test_damping_reproduces_paper_pair():

@@ -2,7 +2,7 @@
 
 Each test builds a long ``records`` table (one row per run point and
 observable) whose errors, noises, costs and scaling are known analytically,
-and checks the numbers :mod:`postproc.cost` derives from it.
+and checks the numbers :mod:`granflow.cost_analysis` derives from it.
 """
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 from matplotlib.figure import Figure
 
-from postproc import cost
+from granflow import cost_analysis as cost
 
 
 def record(scene="channel", knob="dt_fraction", value=0.1, observable="u", x=1.0, se=0.0, finest="min",

@@ -6,7 +6,7 @@ import pytest
 
 from granflow.config import ConfigError, load_yaml, validate_campaign
 from granflow.cost import CostStudy, apply_knob, post_record, prefix_segments, segment_costs
-from postproc.headline import HEADLINE, block_errors
+from granflow.headline import HEADLINE, block_errors
 
 
 @pytest.fixture(scope="module")

@@ -1,7 +1,6 @@
 """Tests of postproc.dump against dumps written on the fly by LAMMPS."""
 from __future__ import annotations
 
-import shutil
 import subprocess
 import sys
 from pathlib import Path

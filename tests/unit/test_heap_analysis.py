@@ -3,7 +3,7 @@
 Every input is synthetic, with a known answer: exact sphere-cap volumes,
 uniform random (overlapping) sphere packings, analytic velocity profiles,
 noisy planes with known parameters. SI units and the lab/moving frames of
-:mod:`postproc.heap`.
+:mod:`granflow.scenes.heap.analysis`.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from numpy.testing import assert_allclose
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from postproc import heap as hp
+from granflow.scenes.heap import analysis as hp
 
 GEOMETRY = hp.HeapGeometry(W=0.46, T=0.013, theta_deg=24.0, x_feed=0.04)  # the paper's box
 ALPHA, V_R, Z0_SURFACE = 25.7, 3.7e-3, 0.30  # degrees, m/s, m (paper: 25.69° at 33 g/s)

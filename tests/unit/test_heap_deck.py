@@ -1,6 +1,5 @@
 """Heap decks: feed-rate planning and refusals, effects -> exactly those commands, skiprun."""
 import copy
-import json
 import math
 import re
 import subprocess
@@ -9,8 +8,8 @@ import pytest
 
 from granflow.config import ConfigError, load_campaign
 from granflow.deck import STAGES, render_case
-from granflow.heap import feed_plan, species
 from granflow.preflight import PreflightError
+from granflow.scenes.heap.parameters import feed_plan, species
 
 #: a feed rate the smoke rung's small feed zone can deliver
 SMOKE_CASE = {"feed_rate": 0.003}

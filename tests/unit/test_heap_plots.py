@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from postproc import heap_plots as hp
+from granflow.scenes.heap import figures as hp
 
 G = 9.81
 L = 0.40                 # flowing-layer length, m

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
 
-from postproc import silo
+from granflow.scenes.silo import analysis as silo
 
 RHO_P, PHI_B, G = 7520.0, 0.60, 10.0
 R_B = 1.0 / 64

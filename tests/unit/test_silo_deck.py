@@ -10,7 +10,7 @@ import pytest
 from granflow.config import ConfigError, load_campaign, validate_scene
 from granflow.deck import render_case
 from granflow.preflight import PreflightError
-from granflow.silo import discharge_verdict, gas_lattice, hertz_stiffness, rim_ring, species
+from granflow.scenes.silo.parameters import discharge_verdict, gas_lattice, hertz_stiffness, rim_ring, species
 
 SMOKE_CASE = {"R": 3.5}
 

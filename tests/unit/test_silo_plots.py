@@ -6,7 +6,7 @@ v0 = a sqrt(R); the kinetic pressure on the axis is a Gaussian bump centred
 at h_c = 1.2 R, shared among the sizes in fixed fractions; the contact
 pressure falls to zero at the outlet; the discharge follows Beverloo's law
 with C = 0.58, k = 1.5 after a short start-up.  The scalars are produced by
-:mod:`postproc.silo` itself, so the figures see what the glue will pass them.
+:mod:`granflow.scenes.silo.analysis` itself, so the figures see what the glue will pass them.
 """
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from postproc import silo
-from postproc import silo_plots as sp
+from granflow.scenes.silo import analysis as silo
+from granflow.scenes.silo import figures as sp
 
 R_B = 1.0 / 64
 RADII = list(R_B * np.arange(10, 17) / 16)       # 7 sizes (the glue passes its own list)

@@ -6,8 +6,8 @@ from pathlib import Path
 sys.stderr = open(snakemake.log[0], "w")
 import pandas as pd  # noqa: E402
 
-from postproc.channel import analyse_channel  # noqa: E402
-from postproc.pipeline import channel_profile, momentum_balance  # noqa: E402
+from granflow.scenes.channel.analysis import analyse_channel  # noqa: E402
+from granflow.scenes.channel.pipeline import channel_profile, momentum_balance  # noqa: E402
 
 case_dir = Path(snakemake.input.params).parent
 record = json.loads(Path(snakemake.input.params).read_text())

@@ -6,7 +6,7 @@ from pathlib import Path
 sys.stderr = open(snakemake.log[0], "w")
 import pandas as pd  # noqa: E402
 
-from postproc.pipeline import heap_analysis  # noqa: E402
+from granflow.scenes.heap.pipeline import heap_analysis  # noqa: E402
 
 case_dir = Path(snakemake.input.params).parent
 record = json.loads(Path(snakemake.input.params).read_text())

@@ -8,7 +8,7 @@ sys.stderr = open(snakemake.log[0], "w")
 os.environ.setdefault("NUMBA_NUM_THREADS", str(snakemake.threads))
 import pandas as pd  # noqa: E402
 
-from postproc.pipeline import silo_analysis  # noqa: E402
+from granflow.scenes.silo.pipeline import silo_analysis  # noqa: E402
 
 case_dir = Path(snakemake.input.params).parent
 record = json.loads(Path(snakemake.input.params).read_text())

@@ -6,7 +6,7 @@ from pathlib import Path
 sys.stderr = open(snakemake.log[0], "w")
 import pandas as pd  # noqa: E402
 
-from postproc import plots  # noqa: E402
+from granflow.scenes.channel import figures as plots  # noqa: E402
 
 FIGURES = {
     "fig04_velocity": plots.fig_velocity_profiles,

@@ -7,7 +7,7 @@ from pathlib import Path
 sys.stderr = open(snakemake.log[0], "w")
 os.environ.setdefault("NUMBA_NUM_THREADS", str(snakemake.threads))
 from granflow.cost import post_record, prefix_segments, segment_costs  # noqa: E402
-from postproc.headline import measure_with_errors  # noqa: E402
+from granflow.headline import measure_with_errors  # noqa: E402
 
 point = json.loads(snakemake.params.point)
 case_dir = Path(snakemake.input.params).parent
@@ -20,7 +20,7 @@ if status["dumps"] and status["status"] not in ("jammed", "unstable"):
     obs = measure_with_errors(scene, case_dir, record, point["t_average"], n_blocks=snakemake.params.n_blocks)
     note = ""
 else:
-    from postproc.headline import HEADLINE
+    from granflow.headline import HEADLINE
 
     obs = {k: {"x": float("nan"), "se": float("nan"), "n_blocks": 0, "label": lab} for k, lab in HEADLINE[scene]}
     obs["window"] = [float("nan"), float("nan")]

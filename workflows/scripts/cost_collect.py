@@ -11,8 +11,7 @@ matplotlib.use("Agg")
 import pandas as pd  # noqa: E402
 
 from granflow.cost import paper_time_step  # noqa: E402
-from postproc.cost import (cost_scaling, knob_errors, plot_error_vs_cost, summary_markdown,  # noqa: E402
-                           within_table)
+from granflow.cost_analysis import cost_scaling, knob_errors, plot_error_vs_cost, summary_markdown, within_table  # noqa: E402
 
 study = json.loads(snakemake.params.study)
 scene = snakemake.wildcards.scene

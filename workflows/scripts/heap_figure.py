@@ -6,7 +6,7 @@ from pathlib import Path
 sys.stderr = open(snakemake.log[0], "w")
 import pandas as pd  # noqa: E402
 
-from postproc.heap_plots import HEAP_FIGURES  # noqa: E402
+from granflow.scenes.heap.figures import HEAP_FIGURES  # noqa: E402
 
 NAMES = ["per_x", "profile", "collapse", "surface", "alpha_t", "rise_by_x", "phi_columns", "deposit"]
 

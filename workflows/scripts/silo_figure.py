@@ -6,7 +6,7 @@ from pathlib import Path
 sys.stderr = open(snakemake.log[0], "w")
 import pandas as pd  # noqa: E402
 
-from postproc.silo_plots import SILO_FIGURES  # noqa: E402
+from granflow.scenes.silo.figures import SILO_FIGURES  # noqa: E402
 
 
 def read(path):

@@ -7,7 +7,7 @@ sys.stderr = open(snakemake.log[0], "w")
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from postproc.silo import beverloo_fit, mean_diameter  # noqa: E402
+from granflow.scenes.silo.analysis import beverloo_fit, mean_diameter  # noqa: E402
 
 rows = [json.loads(Path(p).read_text()) for p in snakemake.input.scalars]
 table = pd.DataFrame(rows).sort_values("R")

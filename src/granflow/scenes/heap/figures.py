@@ -35,7 +35,7 @@ Figures 5-8 show the first case (the paper's 1.5 mm, 33 g/s run), figures 9-11
 and 3 all cases.  Every figure copes with an empty ``cases`` list, missing
 frames and all-NaN columns (the panel then says what is missing), and no fit
 is attempted on fewer than two finite points.  The layout, colours and the
-provenance footer are those of the channel figures (:mod:`postproc.plots`).
+provenance footer are those of the channel figures (:mod:`granflow.plotting`).
 """
 from __future__ import annotations
 
@@ -45,8 +45,24 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import LogFormatter, StrMethodFormatter
 
-from .plots import MARKERS, _colour, _new_figure, _positive, _unavailable
-from .plots import _finish as _finish_with_footer
+from granflow.plotting import (
+    MARKERS,
+    NO_CASE,
+    _col,
+    _colour,
+    _colourbar,
+    _finite,
+    _frame,
+    _label,
+    _new_figure,
+    _plot,
+    _pm,
+    _positive,
+    _say,
+    _scalar,
+    _unavailable,
+)
+from granflow.plotting import _finish_cases as _finish
 
 #: Volume-fraction cutoff that locates the free surface (paper §3.1).
 PHI_C = 0.35
@@ -60,49 +76,11 @@ X_OVER_L_MIN = 0.2
 PAPER_QSTAR_EXPONENT = 0.22
 MM = 1e3    # m -> mm
 CM2 = 1e4   # m^2/s -> cm^2/s
-NO_CASE = "no averaged case"
-
-
-# --------------------------------------------------------------------------- helpers
-def _finish(fig: Figure, cases: list[dict], path, right_in: float = 0.25) -> Figure:
-    """Footer naming every case (``label: provenance``), fixed margins, save at 150 dpi."""
-    rows = [dict(provenance=f"{_label(c)}: {str(c.get('provenance') or '').strip() or 'provenance not given'}")
-            for c in cases]
-    return _finish_with_footer(fig, rows or [dict(provenance=NO_CASE)], path, right_in=right_in)
-
-
-def _label(case: dict) -> str:
-    return str(case.get("label", "?"))
-
-
-def _say(ax, text: str, **kw):
-    ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", color="0.4", **kw)
 
 
 def _no_case(axes):
     for ax in np.ravel(axes):
         _say(ax, NO_CASE, fontsize=11)
-
-
-def _frame(case: dict, key: str) -> pd.DataFrame:
-    df = case.get(key)
-    return df if isinstance(df, pd.DataFrame) else pd.DataFrame()
-
-
-def _col(df: pd.DataFrame, name: str) -> np.ndarray:
-    """Column as floats; all NaN when absent."""
-    if name in df:
-        return pd.to_numeric(df[name], errors="coerce").to_numpy(dtype=float)
-    return np.full(len(df), np.nan)
-
-
-def _scalar(case: dict, key: str) -> float:
-    """``case["scalars"][key]`` as a float (dict or Series); NaN when absent."""
-    scalars = case.get("scalars")
-    try:
-        return float(np.nan if scalars is None else scalars.get(key, np.nan))
-    except (TypeError, ValueError):
-        return np.nan
 
 
 def _pick(values, n: int) -> np.ndarray:
@@ -115,14 +93,6 @@ def _pick(values, n: int) -> np.ndarray:
     if len(v) <= n:
         return v
     return np.unique(v[np.floor((np.arange(n) + 0.5) / n * len(v)).astype(int)])
-
-
-def _finite(*arrays):
-    """The arrays restricted to rows where all are finite, sorted by the first."""
-    arrays = [np.asarray(a, dtype=float) for a in arrays]
-    ok = np.logical_and.reduce([np.isfinite(a) for a in arrays])
-    order = np.argsort(arrays[0][ok], kind="stable")
-    return [a[ok][order] for a in arrays]
 
 
 def _line_fit(x, y):
@@ -142,23 +112,6 @@ def _line_fit(x, y):
     resid = y - (slope * x + intercept)
     se = float(np.sqrt(np.sum(resid ** 2) / (n - 2) / sxx)) if n > 2 else np.nan
     return float(slope), float(intercept), se
-
-
-def _pm(value: float, se: float, fmt: str = ".3g", unit: str = "") -> str:
-    """``value ± se unit``; ``n/a`` when the value is not finite."""
-    if not np.isfinite(value):
-        return "n/a"
-    text = f"{value:{fmt}} ± {se:{fmt}}" if np.isfinite(se) else f"{value:{fmt}}"
-    return text + ("" if unit in ("", "°") else " ") + unit
-
-
-def _plot(ax, x, y, **kw) -> bool:
-    """Plot the finite (x, y) pairs sorted by x; return whether anything was drawn."""
-    x, y = _finite(x, y)
-    if len(x) == 0:
-        return False
-    ax.plot(x, y, **kw)
-    return True
 
 
 def _x_over_L(case: dict, x: np.ndarray) -> tuple[np.ndarray, str]:
@@ -185,12 +138,6 @@ def _colour_by_x(ax, case: dict, df: pd.DataFrame, y: str, positive: bool = Fals
         return True, ax.scatter(zt[ok], val[ok], c=c, cmap="viridis", s=6, lw=0), label
     ax.scatter(zt[ok], val[ok], color=_colour(0), s=6, lw=0)
     return True, None, ""
-
-
-def _colourbar(fig: Figure, ax, mappable, label: str):
-    if mappable is not None:
-        cax = ax.inset_axes([1.03, 0.0, 0.035, 1.0], label="<colorbar>")
-        fig.colorbar(mappable, cax=cax, label=label)
 
 
 def _case_style(i: int, case: dict) -> dict:

@@ -48,7 +48,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from .plots import MARKERS, _colour, _new_figure, _unavailable
+from .plotting import MARKERS, _colour, _new_figure, _unavailable
 
 #: Tolerance drawn as a dashed line in :func:`plot_error_vs_cost` (fraction).
 GUIDE_TOLERANCE = 0.05
@@ -495,7 +495,7 @@ def summary_markdown(table: pd.DataFrame, tolerance: float = 0.05) -> str:
 
 # --------------------------------------------------------------------------- figure
 def _footer(fig: Figure, footer: str, right_in: float = 0.25) -> None:
-    """Provenance footer at the bottom and fixed margins (as :func:`postproc.plots._finish`, without saving)."""
+    """Provenance footer at the bottom and fixed margins (as :func:`granflow.plotting._finish`, without saving)."""
     chars_per_line = int(fig.get_figwidth() * 15)
     text = "\n".join(textwrap.wrap("Provenance: " + (str(footer).strip() or "provenance not given"),
                                    chars_per_line))

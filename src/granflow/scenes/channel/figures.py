@@ -8,9 +8,9 @@ returns the :class:`matplotlib.figure.Figure`.  A case is a dict
 ``W``, ``phi_mean``
     channel width (:math:`d_p`) and nominal mean volume fraction;
 ``profile``
-    the unfolded cross-channel profile (:mod:`postproc.channel` contract);
+    the unfolded cross-channel profile (:mod:`granflow.scenes.channel.analysis` contract);
 ``scalars``
-    the row returned by :func:`postproc.channel.analyse_channel`;
+    the row returned by :func:`granflow.scenes.channel.analysis.analyse_channel`;
 ``provenance``
     where the numbers come from, e.g. ``"rung demo · W=20 d_p · B=6 · k_n=1e5 · N=2700"``.
 
@@ -20,17 +20,14 @@ on the Agg canvas directly (no pyplot, no global state).
 """
 from __future__ import annotations
 
-import textwrap
-from pathlib import Path
-
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from . import channel as ch
+from granflow.plotting import MARKERS, _colour, _finish, _new_figure, _positive, _unavailable
 
-MARKERS = ("o", "^", "v", "D", "s", "P", "X", "<", ">")
+from . import analysis as ch
+
 #: Zone colours of the paper's figure 11 (plug is not sheared and not shown there).
 ZONE_COLOURS = {"wall": "red", "loose": "black", "dense": "saddlebrown", "plug": "0.6"}
 #: Zone-boundary line colours of the paper's figures 6 and 8.
@@ -38,46 +35,10 @@ BOUNDARY_STYLE = (("x_dense_plug", "black", "plug/dense"),
                   ("x_loose_dense", "blue", "dense/loose"),
                   ("x_wall_layer", "red", "loose/wall"))
 PHI_RCP = 0.64
-DPI = 150
-
-
-def _new_figure(nrows: int, ncols: int, size: tuple[float, float]):
-    fig = Figure(figsize=size)
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(nrows, ncols, squeeze=False)
-    return fig, axes
-
-
-def _colour(i: int):
-    return f"C{i % 10}"
 
 
 def _analyse(case: dict) -> ch.ChannelAnalysis:
     return ch.analyse_profile(case["profile"], case["W"])
-
-
-def _finish(fig: Figure, cases: list[dict], path, right_in: float = 0.25) -> Figure:
-    """Add the provenance footer, lay out with fixed margins (``right_in`` inches on the right) and save."""
-    seen = []
-    for c in cases:
-        p = str(c.get("provenance", "")).strip() or "provenance not given"
-        if p not in seen:
-            seen.append(p)
-    chars_per_line = int(fig.get_figwidth() * 15)  # 7 pt monospace: ~4.2 pt per character
-    text = "\n".join(textwrap.wrap("Provenance: " + " | ".join(seen), chars_per_line))
-    n_lines = text.count("\n") + 1
-    height, width = fig.get_figheight(), fig.get_figwidth()
-    footer = (0.13 * n_lines + 0.1) / height
-    # fixed margins in inches (tight_layout doubles the drawing time): room for
-    # tick labels and axis labels, plus the footer at the bottom
-    fig.subplots_adjust(left=0.85 / width, right=1 - right_in / width,
-                        bottom=footer + 0.6 / height, top=1 - 0.4 / height,
-                        wspace=0.28, hspace=0.35)
-    fig.text(0.01, 0.01, text, ha="left", va="bottom", fontsize=7, color="0.25", family="monospace")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI)
-    return fig
 
 
 def _zone_lines(ax, zones: ch.FlowZones, linestyle="-"):
@@ -89,11 +50,6 @@ def _zone_lines(ax, zones: ch.FlowZones, linestyle="-"):
 
 def _zone_legend_handles():
     return [Line2D([], [], color=c, lw=0.8, label=lab) for _, c, lab in BOUNDARY_STYLE]
-
-
-def _unavailable(ax, what: str):
-    ax.text(0.5, 0.5, f"{what} not available", transform=ax.transAxes, ha="center", va="center",
-            color="0.4")
 
 
 def fig_velocity_profiles(cases: list[dict], path) -> Figure:
@@ -189,12 +145,6 @@ def fig_stress_profiles(cases: list[dict], path) -> Figure:
     ax.legend(handles=handles + _zone_legend_handles(), fontsize=7, loc="best")
     ax.set_title("normal and shear stress (compressive positive)")
     return _finish(fig, cases, path, right_in=0.9)
-
-
-def _positive(y) -> np.ndarray:
-    """Mask of finite positive values (what a log axis can show)."""
-    y = np.asarray(y, dtype=float)
-    return np.isfinite(y) & (y > 0)
 
 
 def _se(df, col: str) -> np.ndarray:

@@ -19,10 +19,10 @@ from __future__ import annotations
 
 import math
 
-from .config import check_rung
-from .contact import ContactModel, contact_model_for_time
-from .deck import Param, _number, record_head, shared_si_params, time_step
-from .preflight import PreflightError, check_time_step, neighbor_settings
+from granflow.config import check_rung
+from granflow.contact import ContactModel, contact_model_for_time
+from granflow.deck import Param, _number, record_head, shared_si_params, time_step
+from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
 #: gravitational acceleration, m/s^2
 G = 9.81

@@ -12,7 +12,7 @@ compares a few numbers per scene across fidelity settings:
 then each of ``n_blocks`` consecutive blocks of it on its own; the standard error
 of an observable is the standard deviation of its block values over
 sqrt(n_valid blocks). The same scene analyses as the campaign do the work
-(:mod:`postproc.pipeline`), so the study measures what the campaign reports.
+(the scenes' pipeline modules), so the study measures what the campaign reports.
 """
 from __future__ import annotations
 
@@ -43,47 +43,6 @@ def _finite(value) -> float:
     return value if math.isfinite(value) else float("nan")
 
 
-def channel_observables(case_dir: str | Path, record: dict, t_window=None) -> dict:
-    from .channel import analyse_channel
-    from .pipeline import channel_profile
-
-    out = _nan_observables("channel")
-    try:
-        profile, _ = channel_profile(case_dir, t_window=t_window, record=record)
-    except ValueError:  # no frame in the window
-        return out
-    W, phi = record["parameters"]["W"], record["parameters"]["phi_mean"]
-    s = analyse_channel(profile, W, phi)
-    out.update({"u_ratio": _finite(s.get("ratio")), "delta_over_W": _finite(s.get("delta_095_over_W")),
-                "sigma_xx_over_W": _finite(s.get("sigma_xx_mean")) / W,
-                "eq31_exponent": _finite(s.get("fit_exponent"))})
-    return out
-
-
-def heap_observables(case_dir: str | Path, record: dict, t_window=None) -> dict:
-    from .pipeline import heap_analysis
-
-    out = _nan_observables("heap")
-    try:
-        _, s = heap_analysis(case_dir, t_window=t_window, record=record)
-    except (ValueError, np.linalg.LinAlgError):
-        return out
-    out.update({"alpha": _finite(s.get("alpha_deg")), "delta_over_d": _finite(s.get("delta_over_d")),
-                "tail_exponent": _finite(s.get("tail_k"))})
-    return out
-
-
-def silo_observables(case_dir: str | Path, record: dict, t_max=None, steady=None) -> tuple[dict, tuple]:
-    """Silo headline numbers and the steady window they came from (NaNs if none)."""
-    from .pipeline import silo_analysis
-
-    out = _nan_observables("silo")
-    _, s = silo_analysis(case_dir, t_max=t_max, steady=steady, record=record, headline_only=True)
-    out.update({"W_f": _finite(s.get("W_f")), "profile_deviation": _finite(s.get("sqrt_profile_deviation")),
-                "h_c_over_R": _finite(s.get("h_c_over_R"))})
-    return out, (_finite(s.get("t_start")), _finite(s.get("t_end")))
-
-
 def block_errors(blocks: list[dict], keys) -> dict:
     """Standard error of each key from its block values: std (ddof 1) / sqrt(n finite blocks)."""
     out = {}
@@ -109,6 +68,8 @@ def measure_with_errors(scene: str, case_dir: str | Path, record: dict, t_averag
     keys = [k for k, _ in HEADLINE[scene]]
     labels = dict(HEADLINE[scene])
     if scene == "silo":
+        from .scenes.silo.pipeline import silo_observables
+
         full, (t0, t1) = silo_observables(case_dir, record, t_max=t_average)
         blocks = []
         if math.isfinite(t0) and math.isfinite(t1) and t1 > t0:
@@ -117,6 +78,9 @@ def measure_with_errors(scene: str, case_dir: str | Path, record: dict, t_averag
                       for a, b in zip(edges[:-1], edges[1:])]
         window = [t0, t1]
     else:
+        from .scenes.channel.pipeline import channel_observables
+        from .scenes.heap.pipeline import heap_observables
+
         fn = channel_observables if scene == "channel" else heap_observables
         full = fn(case_dir, record, t_window=(0.0, t_average))
         edges = np.linspace(0.0, t_average, n_blocks + 1)

@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import check_rung
-from .contact import Contact, ContactModel, _model, contact_time, damping_for_restitution
-from .deck import Param, _number, record_head, shared_si_params
-from .preflight import PreflightError, check_time_step, neighbor_settings
+from granflow.config import check_rung
+from granflow.contact import Contact, ContactModel, _model, contact_time, damping_for_restitution
+from granflow.deck import Param, _number, record_head, shared_si_params
+from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
 
 def species(scene: dict) -> list[dict]:

@@ -1,0 +1,325 @@
+"""Orifice profiles, the kinetic pressure on the axis and its transition height, partial stresses, scalings."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .discharge import PHI_MIN_PARTIAL, SQRT_PROFILE_RANGE, _column, field_map, species_ids
+
+
+# --------------------------------------------------------------------------- profiles
+def _nearest(values: np.ndarray, target: float) -> float:
+    values = values[np.isfinite(values)]
+    return float(values[np.argmin(np.abs(values - target))])
+
+
+def orifice_profiles(fields: pd.DataFrame, R: float, z_orifice: float = 0.0,
+                     r_range: float = SQRT_PROFILE_RANGE) -> dict:
+    """Volume fraction and vertical velocity across the orifice (paper figures 4, 5).
+
+    The profiles are read on the node row nearest ``z_orifice`` (its height is
+    returned as ``z_row``) and normalised by the values at the node nearest the
+    axis, :math:`\\phi_c = \\phi(0)` and :math:`v_c = |u_z(0)|`:
+
+    .. math:: \\hat\\phi(r) = \\phi(r)/\\phi(0), \\qquad \\hat v(r) = u_z(r)/u_z(0).
+
+    The distance from the self-similar profile of Janda et al. (2012) is the
+    rms over the nodes with :math:`r < r_{range} R`,
+
+    .. math:: \\Delta = \\Big\\langle \\big(\\hat v(r) - \\sqrt{1-(r/R)^2}\\big)^2 \\Big\\rangle^{1/2}_{r < 0.9R}.
+
+    The range stops at 0.9 R: there :math:`\\sqrt{1-x^2}` has fallen to 0.44
+    with slope -2.1 and its slope diverges at the edge, so beyond it any
+    smoothing by the coarse-graining kernel (width :math:`\\sim 2 r_b`, a
+    sizable fraction of R) and the excluded volume at the orifice rim dominate
+    the comparison.
+
+    Parameters
+    ----------
+    fields : DataFrame
+        Field table with ``r, z, phi, u_z`` (and ``phi_se, u_z_se``).
+    R : float
+        Orifice radius, m.
+    z_orifice : float
+        Height of the orifice plane, m.
+    r_range : float
+        Upper end of the comparison range in units of R.
+
+    Returns
+    -------
+    dict
+        ``profile`` (DataFrame ``r, r_over_R, phi, phi_se, u_z, u_z_se,
+        phi_norm, vz_norm``, r < R_c), ``z_row`` (m), ``r_axis`` (r of the
+        axis node, m), ``phi_c, phi_c_se, v_c, v_c_se`` (m/s),
+        ``sqrt_profile_deviation``, ``n_deviation`` (nodes used).
+    """
+    if not R > 0:
+        raise ValueError(f"orifice radius must be positive, got {R}")
+    z = _column(fields, "z")
+    if not np.isfinite(z).any():
+        raise ValueError("field table has no z nodes")
+    z_row = _nearest(z, z_orifice)
+    row = fields[z == z_row]
+    r = _column(row, "r")
+    order = np.argsort(r, kind="stable")
+    r = r[order]
+    phi, phi_se = _column(row, "phi")[order], _column(row, "phi_se")[order]
+    uz, uz_se = _column(row, "u_z")[order], _column(row, "u_z_se")[order]
+    i0 = int(np.nanargmin(np.abs(r)))
+    phi_c, uz_c = phi[i0], uz[i0]
+    phi_norm = phi / phi_c if np.isfinite(phi_c) and phi_c != 0 else np.full_like(phi, np.nan)
+    vz_norm = uz / uz_c if np.isfinite(uz_c) and uz_c != 0 else np.full_like(uz, np.nan)
+    x = r / R
+    sel = (x < r_range) & np.isfinite(vz_norm)
+    dev = vz_norm[sel] - np.sqrt(1 - x[sel] ** 2)
+    profile = pd.DataFrame(dict(r=r, r_over_R=x, phi=phi, phi_se=phi_se, u_z=uz, u_z_se=uz_se,
+                                phi_norm=phi_norm, vz_norm=vz_norm))
+    return dict(profile=profile, z_row=z_row, r_axis=float(r[i0]), phi_c=float(phi_c), phi_c_se=float(phi_se[i0]),
+                v_c=float(abs(uz_c)), v_c_se=float(uz_se[i0]),
+                sqrt_profile_deviation=float(np.sqrt(np.mean(dev ** 2))) if len(dev) else np.nan,
+                n_deviation=int(len(dev)))
+
+
+def axis_profile(fields: pd.DataFrame, column: str, r_max: float | None = None) -> pd.DataFrame:
+    """A field on the silo axis against height.
+
+    Without ``r_max`` the values of the radial node nearest :math:`r = 0`.
+    With ``r_max`` the area-weighted mean over the nodes with :math:`r < r_{max}`,
+    each node standing for the annulus between the midpoints to its
+    neighbours (the innermost annulus starts at r = 0):
+
+    .. math:: \\bar f(z) = \\frac{\\sum_i A_i f(r_i, z)}{\\sum_i A_i}, \\qquad
+        A_i = \\pi (r_{i+1/2}^2 - r_{i-1/2}^2).
+
+    The standard error of the mean is the same weighted mean of the nodes'
+    standard errors (neighbouring nodes share particles through the kernel, so
+    their errors are taken as fully correlated: an upper bound).
+
+    Returns
+    -------
+    DataFrame
+        ``z`` (m, ascending), ``value``, ``value_se`` (NaN without a
+        ``<column>_se`` column); empty columns when ``column`` is absent.
+    """
+    r, z, values = field_map(fields, column)
+    _, _, se = field_map(fields, f"{column}_se")
+    if not len(r) or column not in fields:
+        return pd.DataFrame(dict(z=z, value=np.full(len(z), np.nan), value_se=np.full(len(z), np.nan)))
+    if r_max is None:
+        i0 = int(np.argmin(np.abs(r)))
+        return pd.DataFrame(dict(z=z, value=values[i0], value_se=se[i0]))
+    mid = 0.5 * (r[1:] + r[:-1])
+    lo = np.clip(np.concatenate([[0.0], mid]), 0.0, None)
+    hi = np.concatenate([mid, [r[-1] + (r[-1] - mid[-1] if len(mid) else r[-1])]])
+    area = np.pi * (hi ** 2 - lo ** 2)
+    inside = r < r_max
+    if not inside.any():
+        inside = np.abs(r) == np.min(np.abs(r))
+    a = np.where(np.isfinite(values[inside]), area[inside, None], 0.0)
+    total = a.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.nansum(a * values[inside], axis=0) / total
+        mean_se = np.nansum(a * se[inside], axis=0) / total
+    mean_se[~np.isfinite(se[inside]).any(axis=0)] = np.nan
+    return pd.DataFrame(dict(z=z, value=mean, value_se=mean_se))
+
+
+# --------------------------------------------------------------------------- kinetic pressure
+def _peak(z: np.ndarray, y: np.ndarray) -> float:
+    """Peak position from the three points around the maximum (z ascending, all finite).
+
+    A parabola through :math:`\\ln y` when the three values are positive (exact
+    for a Gaussian peak, and the kinetic pressure grows exponentially towards
+    its maximum), through :math:`y` otherwise; the vertex is kept between the
+    outer two points.  At an end of the range, that end.
+    """
+    i = int(np.argmax(y))
+    if i == 0 or i == len(y) - 1:
+        return float(z[i])
+    zz, yy = z[i - 1:i + 2], y[i - 1:i + 2]
+    if np.all(yy > 0):
+        yy = np.log(yy)
+    a, b, _ = np.polyfit(zz - zz[1], yy, 2)
+    if not a < 0:
+        return float(z[i])
+    return float(np.clip(zz[1] - b / (2 * a), zz[0], zz[2]))
+
+
+def transition_height(z, pk, pk_se=None, z_min: float = 0.0, n_resample: int = 400,
+                      seed: int = 0) -> tuple[float, float]:
+    """Height :math:`h_c` of the kinetic-pressure maximum on the axis (the transition region).
+
+    .. math:: h_c = \\arg\\max_{z > z_{min}} p^k(r = 0, z)
+
+    refined by the vertex of a parabola through the three nodes around the
+    largest value (through :math:`\\ln p^k` when positive, exact for a
+    Gaussian bump, within a few hundredths of the node spacing for smooth
+    symmetric peaks; a peak whose curvature differs on its two sides by a
+    factor 4 can be off by a third of the spacing).  Only nodes above the
+    orifice plane (``z > z_min``) count.
+
+    Uncertainty: with ``pk_se`` the profile is resampled ``n_resample`` times
+    as :math:`p^k + \\mathcal N(0, \\mathrm{se}^2)` (seeded; nodes taken as
+    independent) and the standard deviation of the resampled :math:`h_c` is
+    returned.  Without ``pk_se`` it is the delta-method error of the vertex of
+    a least-squares parabola through the five nodes around the maximum (the
+    residuals set the noise), or NaN with fewer than five nodes there.  A
+    maximum at the lowest or highest node is not resolved: that node's height
+    is returned with a NaN error.
+
+    Parameters
+    ----------
+    z : array_like
+        Heights, m.
+    pk : array_like
+        Kinetic pressure on the axis, Pa.
+    pk_se : array_like, optional
+        Its standard errors, Pa.
+    z_min : float
+        Only nodes with ``z > z_min`` are used (the orifice plane).
+    n_resample : int
+        Number of resamples.
+    seed : int
+        Seed of :func:`numpy.random.default_rng`.
+
+    Returns
+    -------
+    h_c, h_c_se : float
+        m; NaN when fewer than three usable nodes.
+    """
+    z = np.asarray(z, dtype=float)
+    y = np.asarray(pk, dtype=float)
+    se = np.full_like(y, np.nan) if pk_se is None else np.asarray(pk_se, dtype=float)
+    ok = np.isfinite(z) & np.isfinite(y) & (z > z_min)
+    order = np.argsort(z[ok], kind="stable")
+    z, y, se = z[ok][order], y[ok][order], se[ok][order]
+    if len(z) < 3:
+        return np.nan, np.nan
+    h_c = _peak(z, y)
+    i = int(np.argmax(y))
+    if i == 0 or i == len(y) - 1:
+        return h_c, np.nan
+    if np.isfinite(se).all() and np.any(se > 0):
+        rng = np.random.default_rng(seed)
+        samples = [_peak(z, y + se * rng.standard_normal(len(y))) for _ in range(int(n_resample))]
+        return h_c, float(np.std(samples, ddof=1))
+    if i < 2 or i > len(y) - 3:
+        return h_c, np.nan
+    zz, yy = z[i - 2:i + 3] - z[i], y[i - 2:i + 3]
+    if np.all(yy > 0):
+        yy = np.log(yy)
+    (a, b, _), cov = np.polyfit(zz, yy, 2, cov=True)
+    if not a < 0:
+        return h_c, np.nan
+    grad = np.array([b / (2 * a ** 2), -1 / (2 * a)])  # d(-b/2a)/d(a, b)
+    return h_c, float(np.sqrt(grad @ cov[:2, :2] @ grad))
+
+
+def cumulative_kinetic_pressure(fields: pd.DataFrame) -> pd.DataFrame:
+    """Cumulative kinetic pressure of the particles at least as large as each size (paper figure 10).
+
+    .. math:: P^k_{\\ge s}(\\mathbf r) = \\sum_{s' \\ge s} p^k_{s'}(\\mathbf r)
+
+    with species ids ordered by size, so :math:`P^k_{\\ge 1}` (all sizes, the
+    paper's limit :math:`r > r_s`) is the total :math:`p^k` and
+    :math:`P^k_{\\ge 7}` the largest size alone.  Standard errors add in
+    quadrature (species taken as independent).
+
+    Returns
+    -------
+    DataFrame
+        ``r, z`` and ``pk_cum_s<s>``, ``pk_cum_s<s>_se`` for every species ``s``
+        with a ``pk_s<s>`` column.
+    """
+    ids = species_ids(fields, "pk")
+    out = {key: _column(fields, key) for key in ("r", "z")}
+    total = np.zeros(len(fields))
+    var = np.zeros(len(fields))
+    for s in reversed(ids):
+        total = total + _column(fields, f"pk_s{s}")
+        var = var + _column(fields, f"pk_s{s}_se") ** 2
+        out[f"pk_cum_s{s}"] = total.copy()
+        out[f"pk_cum_s{s}_se"] = np.sqrt(var)
+    cols = ["r", "z"] + [f"pk_cum_s{s}{e}" for s in ids for e in ("", "_se")]
+    return pd.DataFrame(out)[cols]
+
+
+def partial_over_fraction(fields: pd.DataFrame, phi_min: float = PHI_MIN_PARTIAL) -> pd.DataFrame:
+    """Partial kinetic pressure per unit partial volume fraction (paper figure 12).
+
+    .. math:: \\pi_s = p^k_s / \\phi_s, \\qquad
+        \\sigma_{\\pi_s}^2 = \\frac{\\sigma_{p_s}^2}{\\phi_s^2} + \\frac{p_s^2\\sigma_{\\phi_s}^2}{\\phi_s^4}
+
+    in Pa; NaN where :math:`\\phi_s < \\phi_{min}` (no particles of that size there).
+
+    Returns
+    -------
+    DataFrame
+        ``r, z`` and ``pk_over_phi_s<s>``, ``pk_over_phi_s<s>_se`` for every
+        species with both ``pk_s<s>`` and ``phi_s<s>``.
+    """
+    ids = [s for s in species_ids(fields, "pk") if f"phi_s{s}" in fields]
+    out = {key: _column(fields, key) for key in ("r", "z")}
+    for s in ids:
+        pk, phi = _column(fields, f"pk_s{s}"), _column(fields, f"phi_s{s}")
+        pk_se, phi_se = _column(fields, f"pk_s{s}_se"), _column(fields, f"phi_s{s}_se")
+        phi = np.where(phi >= phi_min, phi, np.nan)
+        out[f"pk_over_phi_s{s}"] = pk / phi
+        out[f"pk_over_phi_s{s}_se"] = np.sqrt((pk_se / phi) ** 2 + (pk * phi_se / phi ** 2) ** 2)
+    return pd.DataFrame(out)
+
+
+# --------------------------------------------------------------------------- scaling
+def scaled_flow_rate(W, rho_p: float, phi_c, v_c, R):
+    """Flow rate in units of the orifice flux (paper figure 2b).
+
+    .. math:: \\tilde W = \\frac{W}{\\rho_p \\phi_c v_c \\pi R^2}
+
+    With :math:`\\phi(r)` and :math:`v_z(r)` self-similar across the orifice,
+    :math:`\\tilde W` is a constant fixed by the shape of the profiles (2/3 for
+    a flat :math:`\\phi` and :math:`v_z \\propto \\sqrt{1-(r/R)^2}`).
+    """
+    return np.asarray(W, dtype=float) / (rho_p * np.asarray(phi_c, dtype=float) * np.asarray(v_c, dtype=float)
+                                         * np.pi * np.asarray(R, dtype=float) ** 2)
+
+
+def velocity_scaling_fit(R, v_c, v_c_se=None) -> dict:
+    """Fit :math:`v_c = a\\sqrt R` (a line through the origin against :math:`\\sqrt R`, paper figure 5c).
+
+    .. math:: a = \\frac{\\sum_i w_i \\sqrt{R_i}\\, v_i}{\\sum_i w_i R_i}, \\qquad
+        \\sigma_a^2 = \\frac{1}{\\sum_i w_i R_i}\\cdot\\max(1, \\chi^2/\\nu)
+
+    with :math:`w_i = 1/\\sigma_i^2` (or 1 and the residual variance when no
+    errors are given).  For free fall from a height :math:`\\propto R`,
+    :math:`a = \\sqrt{2 g c}` for a fall height :math:`c R`.
+
+    Returns
+    -------
+    dict
+        ``a`` (m^{1/2}/s), ``a_se``, ``n``; NaN with no point.
+    """
+    x = np.sqrt(np.asarray(R, dtype=float))
+    y = np.asarray(v_c, dtype=float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    s = None
+    if v_c_se is not None:
+        s = np.asarray(v_c_se, dtype=float)
+        if not np.all(np.isfinite(s[ok]) & (s[ok] > 0)):
+            s = None
+    x, y = x[ok], y[ok]
+    n = len(x)
+    if n == 0 or not np.any(x > 0):
+        return dict(a=np.nan, a_se=np.nan, n=n)
+    w = np.ones(n) if s is None else 1.0 / s[ok] ** 2
+    sxx = np.sum(w * x ** 2)
+    a = float(np.sum(w * x * y) / sxx)
+    if n < 2:
+        return dict(a=a, a_se=np.nan, n=n)
+    chi2 = np.sum(w * (y - a * x) ** 2) / (n - 1)
+    scale = chi2 if s is None else max(1.0, chi2)
+    return dict(a=a, a_se=float(np.sqrt(scale / sxx)), n=n)
+
+
+def mean_diameter(radii) -> float:
+    """Number-mean particle diameter of equal numbers per size, :math:`d = 2\\langle r_s\\rangle`, m."""
+    return float(2 * np.mean(np.asarray(radii, dtype=float)))

@@ -1,0 +1,234 @@
+"""Silo figures 2-6: flow rate, fields, orifice profiles, contact pressure."""
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+
+from granflow.plotting import MARKERS, _col, _colour, _frame, _new_figure, _pm, _say, _scalar, _unavailable
+
+from .. import analysis as silo
+from .common import _case_name, _errorbar, _finish, _has, _map, _no_case, _reference
+
+
+# --------------------------------------------------------------------------- figures
+def fig02_flow_rate(cases: list[dict], path) -> Figure:
+    """Paper figure 2: discharge rate against time, (a) raw and (b) rescaled.
+
+    (a) :math:`W_f(t)` from the deleted mass (symbols, standard errors) and
+    :math:`W_r(t)` from the falling free surface (lines) against
+    :math:`t/t_d`, :math:`t_d = \\sqrt{2r_b/g}`; the steady window of each
+    case is shaded and its steady rate dotted.  (b) both rates divided by
+    :math:`\\rho_p\\phi_c v_c\\pi R^2` (:func:`granflow.scenes.silo.analysis.scaled_flow_rate`).
+    """
+    fig, axes = _new_figure(1, 2, (12, 4.6))
+    ax_a, ax_b = axes[0]
+    t_ds = [np.sqrt(2 * _scalar(c, "r_b") / _scalar(c, "gravity")) for c in cases]
+    use_td = bool(cases) and all(np.isfinite(t_ds))
+    xlabel = r"$t/t_d$,  $t_d = \sqrt{2 r_b/g}$" if use_td else r"$t$ [s]"
+    ax_a.set(xlabel=xlabel, ylabel=r"$W$ [kg/s]", title="(a) discharge rate")
+    ax_b.set(xlabel=xlabel, ylabel=r"$W/(\rho_p\phi_c v_c \pi R^2)$", title="(b) rescaled by the orifice flux")
+    if not cases:
+        _no_case(axes)
+        return _finish(fig, cases, path)
+    drawn_a = drawn_b = False
+    for i, case in enumerate(cases):
+        flow = _frame(case, "flow")
+        if not len(flow):
+            continue
+        t_d = t_ds[i] if use_td else 1.0
+        x = _col(flow, "t") / t_d
+        colour, marker = _colour(i), MARKERS[i % len(MARKERS)]
+        w_f, w_r = _col(flow, "W_f"), _col(flow, "W_r")
+        drawn = _errorbar(ax_a, x, w_f, _col(flow, "W_f_se"), color=colour, marker=marker, ms=4,
+                          ls="none", mfc="none", capsize=1.5, label=_case_name(case))
+        drawn |= _errorbar(ax_a, x, w_r, None, color=colour, lw=1)
+        drawn_a |= drawn
+        t0, t1, W = _scalar(case, "t_start"), _scalar(case, "t_end"), _scalar(case, "W_f")
+        if np.isfinite(t0) and np.isfinite(t1):
+            ax_a.axvspan(t0 / t_d, t1 / t_d, color=colour, alpha=0.1, lw=0)
+            if np.isfinite(W):
+                ax_a.plot([t0 / t_d, t1 / t_d], [W, W], color=colour, ls=":", lw=1)
+        scale = silo.scaled_flow_rate(1.0, _scalar(case, "density"), _scalar(case, "phi_c"),
+                                      _scalar(case, "v_c"), _scalar(case, "R"))
+        if np.isfinite(scale) and scale > 0:
+            b = _errorbar(ax_b, x, w_f * scale, _col(flow, "W_f_se") * scale, color=colour, marker=marker,
+                          ms=4, ls="none", mfc="none", capsize=1.5, label=_case_name(case))
+            b |= _errorbar(ax_b, x, w_r * scale, None, color=colour, lw=1)
+            drawn_b |= b
+    if drawn_a:
+        style = [Line2D([], [], color="0.3", marker="o", mfc="none", ls="none", label=r"$W_f$: deleted mass"),
+                 Line2D([], [], color="0.3", lw=1, label=r"$W_r$: free surface"),
+                 Line2D([], [], color="0.3", ls=":", label="steady rate (window shaded)")]
+        ax_a.legend(handles=ax_a.get_legend_handles_labels()[0] + style, fontsize=7)
+    else:
+        _unavailable(ax_a, "flow-rate series")
+    if drawn_b:
+        ax_b.legend(fontsize=7)
+    else:
+        _say(ax_b, "rescaled rate not available\n(needs the flow series, φ_c and v_c)")
+    return _finish(fig, cases, path)
+
+
+def fig03_fields(cases: list[dict], path) -> Figure:
+    """Paper figure 3: (a) volume fraction :math:`\\phi(r, z)` and (b) vertical velocity :math:`v_z(r, z)`.
+
+    For the case with R closest to :math:`12 r_b`; main fields
+    (:math:`w = 2r_b`).  The thick black line is the silo bottom, from the
+    orifice rim to the wall.
+    """
+    fig, axes = _new_figure(1, 2, (11, 5.2))
+    ax_phi, ax_v = axes[0]
+    if not cases:
+        _no_case(axes)
+        return _finish(fig, cases, path, right_in=0.9)
+    ref = _reference(cases, "fields", "phi") or _reference(cases, "fields", "u_z")
+    if ref is None:
+        _unavailable(ax_phi, "φ field")
+        _unavailable(ax_v, "v_z field")
+        return _finish(fig, cases, path, right_in=0.9)
+    _, case = ref
+    table = _frame(case, "fields")
+    _map(fig, ax_phi, table, "phi", r"$\phi$", case, cmap="viridis")
+    _map(fig, ax_v, table, "u_z", r"$v_z$ [m/s]", case, cmap="magma")
+    ax_phi.set_title(f"(a) volume fraction, {_case_name(case)}", fontsize=9)
+    ax_v.set_title(f"(b) vertical velocity, {_case_name(case)}", fontsize=9)
+    return _finish(fig, cases, path, right_in=0.9)
+
+
+def _orifice(case: dict):
+    """:func:`granflow.scenes.silo.analysis.orifice_profiles` of a case, or None when it cannot be formed."""
+    table = _frame(case, "fields")
+    R = _scalar(case, "R")
+    if not _has(table, "r", "z") or not (np.isfinite(R) and R > 0):
+        return None
+    try:
+        return silo.orifice_profiles(table, R)
+    except ValueError:
+        return None
+
+
+def fig04_phi_orifice(cases: list[dict], path) -> Figure:
+    """Paper figure 4: volume fraction across the orifice, (a) :math:`\\phi(r)`, (b) :math:`\\phi/\\phi(0)` vs r/R.
+
+    Read on the node row nearest the orifice plane z = 0
+    (:func:`granflow.scenes.silo.analysis.orifice_profiles`); error bars are standard errors.
+    """
+    fig, axes = _new_figure(1, 2, (11, 4.6))
+    ax_a, ax_b = axes[0]
+    ax_a.set(xlabel=r"$r$ [m]", ylabel=r"$\phi(r)$", title="(a) volume fraction at the orifice")
+    ax_b.set(xlabel=r"$r/R$", ylabel=r"$\phi(r)/\phi(0)$", title="(b) scaled by the orifice radius")
+    if not cases:
+        _no_case(axes)
+        return _finish(fig, cases, path)
+    drawn_a = drawn_b = False
+    for i, case in enumerate(cases):
+        o = _orifice(case)
+        if o is None:
+            continue
+        p = o["profile"]
+        kw = dict(color=_colour(i), marker=MARKERS[i % len(MARKERS)], ms=3.5, lw=0.8, capsize=1.5,
+                  label=f"{_case_name(case)}, z = {o['z_row']:.3g} m")
+        drawn_a |= _errorbar(ax_a, p["r"], p["phi"], p["phi_se"], **kw)
+        drawn_b |= _errorbar(ax_b, p["r_over_R"], p["phi_norm"], p["phi_se"] / o["phi_c"], **kw)
+    for ax, drawn, what in ((ax_a, drawn_a, "φ(r) at the orifice"), (ax_b, drawn_b, "φ(r)/φ(0)")):
+        if drawn:
+            ax.legend(fontsize=7)
+        else:
+            _unavailable(ax, what)
+    return _finish(fig, cases, path)
+
+
+def fig05_vz_orifice(cases: list[dict], path) -> Figure:
+    """Paper figure 5: vertical velocity across the orifice and its scaling with R.
+
+    (a) downward speed :math:`-v_z(r)` on the orifice row; (b)
+    :math:`v_z(r)/v_z(0)` against :math:`r/R` with the reference form
+    :math:`\\sqrt{1-(r/R)^2}` (the legend gives each case's rms deviation over
+    :math:`r < 0.9R`); (c) :math:`v_c = |v_z(0)|` against :math:`\\sqrt R`
+    with the line through the origin fitted by
+    :func:`granflow.scenes.silo.analysis.velocity_scaling_fit`.
+    """
+    fig, axes = _new_figure(1, 3, (15, 4.6))
+    ax_a, ax_b, ax_c = axes[0]
+    ax_a.set(xlabel=r"$r$ [m]", ylabel=r"$-v_z(r)$ [m/s]", title="(a) velocity at the orifice")
+    ax_b.set(xlabel=r"$r/R$", ylabel=r"$v_z(r)/v_z(0)$", title="(b) scaled by the orifice radius")
+    ax_c.set(xlabel=r"$\sqrt{R}$ [m$^{1/2}$]", ylabel=r"$v_c = |v_z(0)|$ [m/s]", title=r"(c) $v_c$ against $\sqrt{R}$")
+    if not cases:
+        _no_case(axes)
+        return _finish(fig, cases, path)
+    drawn_a = drawn_b = False
+    Rs, vcs, vc_ses = [], [], []
+    for i, case in enumerate(cases):
+        o = _orifice(case)
+        style = dict(color=_colour(i), marker=MARKERS[i % len(MARKERS)], ms=3.5)
+        if o is not None:
+            p = o["profile"]
+            kw = dict(lw=0.8, capsize=1.5, **style)
+            drawn_a |= _errorbar(ax_a, p["r"], -p["u_z"], p["u_z_se"], label=_case_name(case), **kw)
+            dev = _scalar(case, "sqrt_profile_deviation")
+            dev = dev if np.isfinite(dev) else o["sqrt_profile_deviation"]
+            drawn_b |= _errorbar(ax_b, p["r_over_R"], p["vz_norm"], p["u_z_se"] / o["v_c"],
+                                 label=f"{_case_name(case)}: rms dev. {dev:.3f}", **kw)
+        v_c = _scalar(case, "v_c")
+        v_c_se = _scalar(case, "v_c_se")
+        if not np.isfinite(v_c) and o is not None:
+            v_c, v_c_se = o["v_c"], o["v_c_se"]
+        R = _scalar(case, "R")
+        if np.isfinite(v_c) and np.isfinite(R) and R > 0:
+            ax_c.errorbar([np.sqrt(R)], [v_c], yerr=[np.nan_to_num(v_c_se)], ls="none", capsize=2,
+                          label=_case_name(case), **style)
+            Rs.append(R), vcs.append(v_c), vc_ses.append(v_c_se)
+    x = np.linspace(0, 1, 200)
+    ax_b.plot(x, np.sqrt(1 - x ** 2), "k-", lw=1.5, label=r"reference $\sqrt{1-(r/R)^2}$ (Janda et al. 2012)")
+    ax_b.axvspan(silo.SQRT_PROFILE_RANGE, 1.0, color="0.9", lw=0, zorder=0)
+    if drawn_a:
+        ax_a.legend(fontsize=7)
+    else:
+        _unavailable(ax_a, "v_z(r) at the orifice")
+    if not drawn_b:
+        _unavailable(ax_b, "v_z(r)/v_z(0)")
+    ax_b.legend(fontsize=7, loc="lower left")
+    if Rs:
+        fit = silo.velocity_scaling_fit(Rs, vcs, vc_ses)
+        if np.isfinite(fit["a"]):
+            xs = np.linspace(0, np.sqrt(max(Rs)) * 1.1, 50)
+            ax_c.plot(xs, fit["a"] * xs, "k--", lw=1,
+                      label=f"fit $v_c = a\\sqrt{{R}}$: a = {_pm(fit['a'], fit['a_se'], '.3g', 'm^1/2/s')}")
+        ax_c.set_xlim(left=0)
+        ax_c.set_ylim(bottom=0)
+        ax_c.legend(fontsize=7)
+    else:
+        _unavailable(ax_c, "v_c")
+    return _finish(fig, cases, path)
+
+
+def fig06_contact_pressure(cases: list[dict], path) -> Figure:
+    """Paper figure 6: contact pressure :math:`p^c`, (a) map and (b) on the axis.
+
+    (a) for the case with R closest to :math:`12 r_b`; (b) :math:`p^c(r=0, z)`
+    for every case (contact table, :math:`w = r_b/2`), with standard errors.
+    """
+    fig, axes = _new_figure(1, 2, (11, 5.2))
+    ax_m, ax_z = axes[0]
+    ax_z.set(xlabel=r"$z$ [m]", ylabel=r"$p^c(r=0)$ [Pa]", title="(b) contact pressure on the axis")
+    if not cases:
+        _no_case(axes)
+        return _finish(fig, cases, path, right_in=0.9)
+    ref = _reference(cases, "contact", "pc")
+    if ref is None:
+        _unavailable(ax_m, "contact pressure")
+    else:
+        _map(fig, ax_m, _frame(ref[1], "contact"), "pc", r"$p^c$ [Pa]", ref[1], cmap="cividis")
+        ax_m.set_title(f"(a) contact pressure, {_case_name(ref[1])}", fontsize=9)
+    drawn = False
+    for i, case in enumerate(cases):
+        prof = silo.axis_profile(_frame(case, "contact"), "pc")
+        drawn |= _errorbar(ax_z, prof["z"], prof["value"], prof["value_se"], color=_colour(i),
+                           marker=MARKERS[i % len(MARKERS)], ms=3, lw=0.8, capsize=1.5, label=_case_name(case))
+    if drawn:
+        ax_z.axvline(0.0, color="0.5", ls=":", lw=0.8)
+        ax_z.legend(fontsize=7)
+    else:
+        _unavailable(ax_z, "contact pressure on the axis")
+    return _finish(fig, cases, path, right_in=0.9)

@@ -13,17 +13,14 @@ configfile: os.path.join(workflow.basedir, "config", "config.yaml")
 
 
 include: "workflows/rules/common.smk"
-include: "workflows/rules/channel.smk"
-include: "workflows/rules/heap.smk"
-include: "workflows/rules/silo.smk"
+include: "workflows/rules/scenes.smk"
 include: "workflows/rules/cost.smk"
 
 
 rule all:
+    """Every enabled scene's table and figures (scenes are found through granflow's registry)."""
     input:
-        channel_targets(),
-        heap_targets(),
-        silo_targets(),
+        scene_targets(),
 
 
 rule cost:

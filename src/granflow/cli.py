@@ -10,6 +10,10 @@ Write the decks and parameter record of one channel case without running it::
 
     granflow render channel --rung smoke --out /tmp/channel --set case.phi_mean=0.61
 
+List the registered scenes::
+
+    granflow scenes
+
 Run (or resume) a rendered case on 2 MPI ranks::
 
     granflow run /tmp/channel --np 2
@@ -21,7 +25,9 @@ import json
 import sys
 from pathlib import Path
 
-from .config import PROJECT_ROOT, SCENES, ConfigError, load_campaign, load_scene, load_yaml
+from . import registry
+from .campaign import load_campaign
+from .config import PROJECT_ROOT, ConfigError, load_scene, load_yaml
 from .preflight import PreflightError
 
 
@@ -46,24 +52,25 @@ def cmd_check_config(args) -> int:
 
 
 def cmd_render(args) -> int:
-    from .deck import render_case
+    from .deck import STAGES, render_case
 
     scene_file = Path(args.config or PROJECT_ROOT / "config" / "scenes" / f"{args.scene}.yaml")
     scene = load_scene(scene_file, args.overrides)
     record = render_case(scene, args.rung, args.out)
     prm = record["parameters"]
-    if args.scene == "channel":
-        what = f"W = {prm['W']:g} d_p, phi_mean = {prm['phi_mean']:g}, {prm['n_particles']} particles"
-        stages = "init,flow,average"
-    elif args.scene == "heap":
-        what = (f"W = {prm['W']:g} m, feed rate {prm['feed_rate']:g} kg/s ({prm['feed_rate_planned']:.4g} planned), "
-                f"~{record['n_particles_estimate']} particles by the end")
-        stages = "init,flow,average"
-    else:
-        what = f"R = {record['R_over_rb']:g} r_b, R_c = {record['R_c']:g} m, {record['n_particles']} particles"
-        stages = "init,average"
-    print(f"wrote {args.out}/{{{stages}}}.lmp and params.json: {args.scene}, rung {args.rung}, "
+    written = {p.stem for p in Path(args.out).glob("*.lmp")}
+    stages = ",".join([s for s in STAGES if s in written] + sorted(written - set(STAGES)))
+    what = registry.get(scene["scene"]).describe(record)
+    print(f"wrote {args.out}/{{{stages}}}.lmp and params.json: {scene['scene']}, rung {args.rung}, "
           f"{what}, dt = {record['dt']:.4g} ({record['dt'] / prm['t_c_min']:.3g} t_c_min)")
+    return 0
+
+
+def cmd_scenes(args) -> int:
+    """One line per registered scene: name, what it simulates, and its sweep axes."""
+    for name, scene in registry.scenes().items():
+        axes = ", ".join(a.key for a in scene.sweep)
+        print(f"{name:10s} {scene.summary} [sweep: {axes}]")
     return 0
 
 
@@ -98,12 +105,17 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Render the LAMMPS decks (init, flow, average) and params.json of "
                                    "one case of SCENE at RUNG into DIR, without running LAMMPS. The time "
                                    "step is checked against the stiffest contact first.")
-    p.add_argument("scene", choices=SCENES, help="scene name")
+    p.add_argument("scene", choices=registry.names(), help="scene name (see `granflow scenes`)")
     p.add_argument("--rung", required=True, help="fidelity rung: smoke, demo, study or paper")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--config", help="scene YAML (default config/scenes/SCENE.yaml)")
     _add_set(p)
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("scenes", help="list the registered scenes, one line each",
+                       description="List every scene package under granflow/scenes with what it simulates "
+                                   "and the case keys a campaign can sweep.")
+    p.set_defaults(func=cmd_scenes)
 
     p = sub.add_parser("run", help="run or resume a rendered case",
                        description="Run the rendered case in CASE_DIR under mpirun, in segments with "

@@ -9,7 +9,6 @@ user can fix the file without reading the schema.
 from __future__ import annotations
 
 import copy
-import math
 import re
 from pathlib import Path
 from typing import Any, Iterable
@@ -17,10 +16,11 @@ from typing import Any, Iterable
 import jsonschema
 import yaml
 
+from . import registry
+
 #: Root of the project (``src/granflow/config.py`` -> project root).
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 SCHEMA_DIR = PROJECT_ROOT / "config" / "schema"
-SCENES = ("channel", "heap", "silo")
 RUNGS = ("smoke", "demo", "study", "paper")
 
 
@@ -170,58 +170,14 @@ def _check(cond: bool, msg: str) -> None:
         raise ConfigError(msg)
 
 
-def _check_channel(scene: dict, source: str) -> None:
-    p = scene["particles"]
-    _check(len(p["diameters"]) == len(p["number_fractions"]),
-           f"{source}: particles.number_fractions has {len(p['number_fractions'])} entries, "
-           f"particles.diameters has {len(p['diameters'])}: allowed only equal lengths")
-    total = sum(p["number_fractions"])
-    _check(math.isclose(total, 1.0, abs_tol=1e-6),
-           f"{source}: particles.number_fractions sum to {total:g}: allowed sum = 1")
-    for name, r in scene["rungs"].items():
-        W = r["W"]
-        _check(2 * r["wall_bin_width"] + r["bin_width"] <= W,
-               f"{source}: rungs.{name}.W = {W} leaves no interior bin: allowed W >= "
-               f"2*wall_bin_width + bin_width = {2 * r['wall_bin_width'] + r['bin_width']}")
-        _check(r["t_segment"] <= r["t_flow_max"],
-               f"{source}: rungs.{name}.t_segment = {r['t_segment']}: allowed <= t_flow_max = {r['t_flow_max']}")
-
-
-def _check_heap(scene: dict, source: str) -> None:
-    for name, mix in scene["particles"]["mixtures"].items():
-        d, f = mix["diameters"], mix["volume_fractions"]
-        _check(len(d) == len(f), f"{source}: particles.mixtures.{name}.volume_fractions has {len(f)} entries, "
-                                 f"diameters has {len(d)}: allowed only equal lengths")
-        _check(math.isclose(sum(f), 1.0, abs_tol=1e-6),
-               f"{source}: particles.mixtures.{name}.volume_fractions sum to {sum(f):g}: allowed sum = 1")
-        _check(list(d) == sorted(d), f"{source}: particles.mixtures.{name}.diameters = {d}: "
-                                     f"allowed only increasing (species 1 is the small one)")
-    mix = scene["case"]["mixture"]
-    _check(mix in scene["particles"]["mixtures"],
-           f"{source}: case.mixture = {mix!r} is not allowed: allowed one of "
-           f"{', '.join(map(repr, scene['particles']['mixtures']))}")
-    for name, r in scene["rungs"].items():
-        _check(r["feed_width"] < r["W"], f"{source}: rungs.{name}.feed_width = {r['feed_width']}: "
-                                         f"allowed < W = {r['W']}")
-
-
-def _check_silo(scene: dict, source: str) -> None:
-    f = scene["particles"]["radius_fractions"]
-    _check(list(f) == sorted(f) and len(set(f)) == len(f),
-           f"{source}: particles.radius_fractions = {f}: allowed only strictly increasing (type 1 is the smallest)")
-    _check(set(scene["effects"]["walls"]) == {"side", "floor"},
-           f"{source}: effects.walls = {scene['effects']['walls']}: allowed [side, floor] (the silo needs both)")
-    _check(not scene["effects"]["reinsert"] or scene["effects"]["deletion"],
-           f"{source}: effects.reinsert = true needs effects.deletion = true: allowed reinsert only with deletion")
-
-
 def validate_scene(scene: dict, source: str = "scene") -> dict:
     """Schema plus cross-field checks of a scene file; returns it unchanged."""
     name = scene.get("scene")
-    if name not in SCENES:
-        raise ConfigError(f"{source}: scene = {name!r} is not allowed: allowed one of {', '.join(map(repr, SCENES))}")
+    if name not in registry.names():
+        raise ConfigError(f"{source}: scene = {name!r} is not allowed: allowed one of "
+                          f"{', '.join(map(repr, registry.names()))}")
     validate(scene, name, source)
-    {"channel": _check_channel, "heap": _check_heap, "silo": _check_silo}[name](scene, source)
+    registry.get(name).check(scene, source)
     for rname, r in scene["rungs"].items():
         _check(r["dump_interval"] <= r["t_average"],
                f"{source}: rungs.{rname}.dump_interval = {r['dump_interval']}: allowed <= t_average = {r['t_average']}")
@@ -236,108 +192,55 @@ def load_scene(path: str | Path, overrides: Iterable[str] = ()) -> dict:
     return validate_scene(data, source=str(path))
 
 
-def load_campaign(path: str | Path, overrides: Iterable[str] = (), root: Path | None = None) -> dict:
-    """Load, override and validate the campaign file and every enabled scene file.
+def validate_campaign_scenes(data: dict, root: Path, source: str = "config") -> dict:
+    """Validate a campaign dict's scenes (the whole campaign: :func:`granflow.campaign.validate_campaign`).
 
-    Returns the campaign dict with each enabled scene's validated file content
-    under ``scenes.<name>.scene``.
-    """
-    data = apply_overrides(load_yaml(path), overrides)
-    root = Path(root) if root else Path(path).resolve().parent.parent
-    return validate_campaign(data, root, source=str(path))
-
-
-def validate_campaign(data: dict, root: Path, source: str = "config") -> dict:
-    """Validate a campaign dict (e.g. Snakemake's ``config``) and load its scene files.
-
-    Scene file paths are relative to ``root``. Returns a copy with each enabled
-    scene's validated content under ``scenes.<name>.scene``.
+    Scene file paths are relative to ``root``. Every sweep point is checked by its
+    scene (schema bounds of the swept key, then the scene's own feasibility checks).
+    Returns a copy with each enabled scene's validated content under ``scenes.<name>.scene``.
     """
     data = copy.deepcopy(data)
     path = source
     validate(data, "config", source=source)
     for name, sc in data.get("scenes", {}).items():
+        _check(name in registry.names(), f"{path}: scenes.{name} is not allowed: allowed one of "
+                                         f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
         if not sc.get("enabled", True):
             continue
-        scene_path = Path(sc["scene_file"])
+        scene_path = Path(sc.get("scene_file") or f"config/scenes/{name}.yaml")
         if not scene_path.is_absolute():
             scene_path = root / scene_path
         scene = load_scene(scene_path)
+        _check(scene["scene"] == name, f"{path}: scenes.{name}.scene_file = {sc.get('scene_file')!r} describes "
+                                       f"the {scene['scene']} scene: allowed a {name} scene file")
         rung = data["rung"]
         _check(rung in scene["rungs"],
                f"{path}: rung = {rung!r} is not defined in {scene_path}: allowed {', '.join(scene['rungs'])}")
-        if name == "channel":
-            _check_channel_sweep(sc, scene, rung, path)
-        elif name == "heap":
-            _check_heap_sweep(sc, scene, rung, path)
-        elif name == "silo":
-            _check_silo_sweep(sc, scene, rung, path)
+        _check_sweep(name, sc.get("sweep") or {}, scene, rung, path)
         sc["scene"] = scene
-    if data.get("cost"):
-        data["cost_studies"] = _cost_studies(data, root, source)
     return data
 
 
-def _cost_studies(data: dict, root: Path, source: str) -> dict:
-    """Every scene study of the ``cost`` section, its variant scenes validated and preflighted."""
-    from .cost import CostStudy  # deferred: cost builds on this module
-    from .deck import scene_parameters
-    from .preflight import PreflightError
-
-    studies = {}
-    for name, study in (data["cost"].get("scenes") or {}).items():
-        if not study.get("enabled", True):
-            continue
-        sc = data.get("scenes", {}).get(name) or {}
-        scene_path = Path(sc.get("scene_file") or f"config/scenes/{name}.yaml")
-        scene = sc.get("scene") or load_scene(scene_path if scene_path.is_absolute() else root / scene_path)
-        cs = CostStudy(name, scene, study, source=f"{source}: cost")
-        for run, variant in cs.scenes.items():
-            try:
-                scene_parameters(variant, cs.rung)
-            except (PreflightError, ValueError) as exc:
-                raise ConfigError(f"{source}: cost.scenes.{name} run {run!r} is not allowed: {exc}") from None
-        studies[name] = cs
-    return studies
-
-
-def _check_channel_sweep(sc: dict, scene: dict, rung: str, path: str) -> None:
-    """Every channel sweep point must pass the scene's own case bounds."""
-    for W in sc["sweep"].get("W", [None]):
-        for phi in sc["sweep"].get("phi_mean", [scene["case"]["phi_mean"]]):
-            case = dict(scene["case"], phi_mean=phi, W=W)
-            validate(dict(scene, case=case), scene["scene"], source=f"{path} (sweep point W={W}, phi_mean={phi})")
-            rW = W if W is not None else scene["rungs"][rung]["W"]
-            r = scene["rungs"][rung]
-            _check(2 * r["wall_bin_width"] + r["bin_width"] <= rW,
-                   f"{path}: scenes.channel.sweep.W = {rW} leaves no interior bin: allowed W >= "
-                   f"{2 * r['wall_bin_width'] + r['bin_width']}")
-
-
-def _check_heap_sweep(sc: dict, scene: dict, rung: str, path: str) -> None:
-    """Every heap sweep point: a known mixture, and a feed rate the feed zone can deliver."""
-    from .preflight import PreflightError
-    from .scenes.heap.parameters import feed_plan  # deferred: the deck package imports this module
-
-    for mix in sc["sweep"].get("mixture", [scene["case"]["mixture"]]):
-        _check(mix in scene["particles"]["mixtures"],
-               f"{path}: scenes.heap.sweep.mixture = {mix!r} is not allowed: allowed one of "
-               f"{', '.join(map(repr, scene['particles']['mixtures']))}")
-        for rate in sc["sweep"].get("feed_rate", [scene["case"]["feed_rate"]]):
-            case = dict(scene["case"], feed_rate=rate, mixture=mix)
-            try:
-                feed_plan(scene, rung, case)
-            except PreflightError as exc:
-                raise ConfigError(f"{path}: scenes.heap.sweep.feed_rate = {rate} (mixture {mix}, rung {rung}) "
-                                  f"is not allowed: {exc}") from None
-
-
-def _check_silo_sweep(sc: dict, scene: dict, rung: str, path: str) -> None:
-    """Every orifice radius of the sweep must fit the rung's silo."""
-    R_c = scene["rungs"][rung]["R_c"]
-    for R in sc["sweep"].get("R", [scene["case"]["R"]]):
-        _check(R <= R_c - 2, f"{path}: scenes.silo.sweep.R = {R} (in r_b) does not fit the {rung} silo of "
-                             f"R_c = {R_c} r_b: allowed 1 <= R <= R_c - 2 = {R_c - 2}")
+def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str) -> None:
+    """Every value of the sweep within the scene schema's bounds of its case key, every point feasible."""
+    sc = registry.get(name)
+    axes = {a.key for a in sc.sweep}
+    case_schema = load_schema(name)["properties"]["case"]["properties"]
+    for key, values in sweep.items():
+        _check(key in axes, f"{path}: unknown key scenes.{name}.sweep.{key} (value {values!r}); "
+                            f"allowed keys here: {', '.join(sorted(axes))}")
+        schema = {k: v for k, v in case_schema[key].items() if k != "default"}
+        if isinstance(schema.get("type"), list):  # a sweep lists values: null (= the rung's default) is not one
+            schema["type"] = [t for t in schema["type"] if t != "null"]
+        validator = jsonschema.Draft202012Validator(schema)
+        for i, value in enumerate(values):
+            for err in validator.iter_errors(value):
+                err.path.appendleft(i)
+                for part in reversed(("scenes", name, "sweep", key)):
+                    err.path.appendleft(part)
+                raise ConfigError(_format_error(err, path))
+    for point in sc.sweep_points(scene, sweep, rung):
+        sc.check_case(scene, rung, point, path)
 
 
 def check_rung(scene: dict, rung: str, source: str = "--rung") -> dict:

@@ -20,38 +20,13 @@ from __future__ import annotations
 
 import copy
 import math
+from pathlib import Path
 
-from .config import ConfigError, validate_scene
+from . import registry
+from .config import ConfigError, load_scene, validate_scene
 
 KNOBS = ("dt_fraction", "stiffness", "size", "t_average", "bin_width")
 POST_KNOBS = ("t_average", "bin_width")
-
-#: scene -> knob -> (dotted rung/scene keys it sets, "set" or "scale", which end is finest, unit label)
-KNOB_TARGETS = {
-    "channel": {
-        "dt_fraction": (["rungs.{r}.dt_fraction"], "set", "min", "dt / t_c"),
-        "stiffness": (["rungs.{r}.k_n"], "set", "max", "k_n, m_p g/d_p"),
-        "size": (["rungs.{r}.W", "rungs.{r}.B", "rungs.{r}.H"], "scale", "max", "factor on W, B, H"),
-        "t_average": (["rungs.{r}.t_average"], "set", "max", "averaging time, √(d_p/g)"),
-        "bin_width": (["rungs.{r}.bin_width"], "set", "min", "bin width, d_p"),
-    },
-    "heap": {
-        "dt_fraction": (["rungs.{r}.dt_fraction"], "set", "min", "dt / t_c"),
-        "stiffness": (["rungs.{r}.t_c"], "set", "min", "contact time t_c, s"),
-        "size": (["rungs.{r}.W", "rungs.{r}.T", "case.feed_rate"], "scale", "max",
-                 "factor on length W, gap T and feed rate"),
-        "t_average": (["rungs.{r}.t_average"], "set", "max", "averaging time, s"),
-        "bin_width": (["rungs.{r}.bin_dz_u"], "set", "min", "velocity depth bin, d̄"),
-    },
-    "silo": {
-        "dt_fraction": (["rungs.{r}.dt_fraction"], "set", "min", "dt / t_c"),
-        "stiffness": (["rungs.{r}.Y_factor"], "set", "max", "Y / Y_paper"),
-        "size": (["rungs.{r}.R_c", "rungs.{r}.fill_height"], "scale", "max", "factor on R_c and fill height"),
-        "t_average": (["rungs.{r}.t_discharge", "rungs.{r}.t_average"], "set", "max", "discharge time used, s"),
-        "bin_width": (["cg.w_fields"], "set", "min", "kernel width w, r_b"),
-    },
-}
-
 
 def fmt(value: float) -> str:
     """Directory-name form of a knob value: 0.05 -> '0.05', 1e-05 -> '1e-05'."""
@@ -97,17 +72,17 @@ def base_scene(scene: dict, study: dict, source: str) -> dict:
 
 def knob_base_value(scene_name: str, scene: dict, rung: str, knob: str) -> float:
     """The base case's value of ``knob`` (1 for a size factor)."""
-    keys, mode, _, _ = KNOB_TARGETS[scene_name][knob]
-    return 1.0 if mode == "scale" else float(_get(scene, keys[0].format(r=rung)))
+    k = registry.get(scene_name).knobs[knob]
+    return 1.0 if k.mode == "scale" else float(_get(scene, k.keys[0].format(r=rung)))
 
 
 def apply_knob(scene_name: str, scene: dict, rung: str, knob: str, value: float) -> dict:
     """A copy of the base scene with one knob at ``value``."""
     out = copy.deepcopy(scene)
-    keys, mode, _, _ = KNOB_TARGETS[scene_name][knob]
-    for key in keys:
+    k = registry.get(scene_name).knobs[knob]
+    for key in k.keys:
         key = key.format(r=rung)
-        new = float(value) * _get(scene, key) if mode == "scale" else float(value)
+        new = float(value) * _get(scene, key) if k.mode == "scale" else float(value)
         _put(out, key, new)
     return out
 
@@ -131,6 +106,11 @@ class CostStudy:
         self.study = study
         self.base = base_scene(scene, study, self.source)
         self.knobs = {k: [float(v) for v in vals] for k, vals in study["knobs"].items() if vals}
+        known = registry.get(scene_name).knobs
+        for knob in self.knobs:
+            if knob not in known:
+                raise ConfigError(f"{self.source}.knobs.{knob} is not allowed: the {scene_name} scene has the knobs "
+                                  f"{', '.join(known)}")
         self.base_values = {k: knob_base_value(scene_name, self.base, self.rung, k) for k in self.knobs}
         for knob, values in self.knobs.items():
             b = self.base_values[knob]
@@ -187,15 +167,15 @@ class CostStudy:
             t_average = value
         post = {}
         if knob == "bin_width":
-            keys, _, _, _ = KNOB_TARGETS[self.name]["bin_width"]
+            keys = registry.get(self.name).knobs["bin_width"].keys
             post = {k.format(r=self.rung): value for k in keys}
         return {"name": name, "knob": knob, "value": value, "run": run, "t_average": t_average, "post": post}
 
     def finest(self, knob: str) -> str:
-        return KNOB_TARGETS[self.name][knob][2]
+        return registry.get(self.name).knobs[knob].finest
 
     def unit(self, knob: str) -> str:
-        return KNOB_TARGETS[self.name][knob][3]
+        return registry.get(self.name).knobs[knob].unit
 
 
 def post_record(record: dict, post: dict) -> dict:
@@ -214,7 +194,31 @@ def post_record(record: dict, post: dict) -> dict:
     return out
 
 
-__all__ = ["KNOBS", "POST_KNOBS", "KNOB_TARGETS", "CostStudy", "apply_knob", "base_scene",
+def cost_studies(data: dict, root: Path, source: str) -> dict:
+    """Every scene study of the ``cost`` section, its variant scenes validated and preflighted."""
+    from .preflight import PreflightError
+
+    studies = {}
+    for name, study in (data["cost"].get("scenes") or {}).items():
+        if name not in registry.names():
+            raise ConfigError(f"{source}: cost.scenes.{name} is not allowed: allowed one of "
+                              f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
+        if not study.get("enabled", True):
+            continue
+        sc = data.get("scenes", {}).get(name) or {}
+        scene_path = Path(sc.get("scene_file") or f"config/scenes/{name}.yaml")
+        scene = sc.get("scene") or load_scene(scene_path if scene_path.is_absolute() else root / scene_path)
+        cs = CostStudy(name, scene, study, source=f"{source}: cost")
+        for run, variant in cs.scenes.items():
+            try:
+                registry.get(name).parameters(variant, cs.rung)  # preflight: time step, feasibility
+            except (PreflightError, ValueError) as exc:
+                raise ConfigError(f"{source}: cost.scenes.{name} run {run!r} is not allowed: {exc}") from None
+        studies[name] = cs
+    return studies
+
+
+__all__ = ["KNOBS", "POST_KNOBS", "CostStudy", "cost_studies", "apply_knob", "base_scene",
            "post_record", "fmt"]
 
 
@@ -225,7 +229,7 @@ def segment_costs(run_dir) -> list[dict]:
     import json
     from pathlib import Path
 
-    from .runner import loop_cost
+    from .runner import loop_cost  # deferred: the runner is needed only to read finished runs
 
     logs = sorted(Path(run_dir, "logs").glob("*.log"))
     order = {"init": 0, "flow": 1, "average": 2}
@@ -256,25 +260,7 @@ def prefix_segments(segments: list[dict], t_average: float, t_segment: float) ->
 
 def paper_reference(scene_name: str, scene: dict) -> dict:
     """Particle count and simulated time of the paper rung for the study's case (for the extrapolation)."""
-    from .deck import scene_parameters
-
-    _, context = scene_parameters(scene, "paper")
-    rec = context["record"]
-    rung = rec["rung_knobs"]
-    if scene_name == "channel":
-        n = rec["parameters"]["n_particles"]
-        t = scene["protocol"]["settle_time"] * 1.2 + rung["t_flow_max"] + rung["t_average"]
-        how = "settle + t_flow_max + t_average"
-    elif scene_name == "heap":
-        n = rec["n_particles_estimate"]
-        t = rec["t_steady_estimate"] + rung["t_average"]
-        how = "estimated filling time to a steady heap + t_average (particles at the end)"
-    else:
-        n = rec["n_particles"]
-        t = scene["protocol"]["t_settle_max"] + rung["t_discharge"]
-        how = "longest settling + t_discharge"
-    return {"n_particles": int(n), "sim_time": float(t), "dt": rec["dt"],
-            "dt_fraction": rec["dt"] / rec["parameters"]["t_c_min"], "how": how}
+    return registry.get(scene_name).paper_reference(scene)
 
 
 def paper_time_step(knob: str | None, value: float | None, dt_run: float, base_dt_fraction: float,

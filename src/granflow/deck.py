@@ -14,7 +14,8 @@ from pathlib import Path
 
 import jinja2
 
-from .config import PROJECT_ROOT, check_rung
+from . import registry
+from .config import PROJECT_ROOT
 from .contact import ContactModel
 from .preflight import PreflightError
 
@@ -61,15 +62,6 @@ def species_counts(n: int, fractions: list[float]) -> list[int]:
     return counts
 
 
-def case_values(scene: dict, rung_name: str, case: dict | None = None) -> dict:
-    """Merge the scene's default case, the rung and a sweep point into one case dict."""
-    rung = check_rung(scene, rung_name)
-    merged = dict(scene["case"], **(case or {}))
-    if merged.get("W") is None:
-        merged["W"] = rung["W"]
-    return merged
-
-
 def shared_si_params(model: ContactModel, skin: float, neigh: dict, guards: dict) -> list[Param]:
     """Deck numbers every SI scene writes the same way: tangential spring, friction,
     shortest contact, neighbour lists and guards."""
@@ -108,23 +100,16 @@ def time_step(rung: dict, model: ContactModel) -> float:
 
 
 def scene_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tuple[list[Param], dict]:
-    """Deck numbers and template context of any scene."""
-    if scene["scene"] == "heap":
-        from .scenes.heap.parameters import heap_parameters  # the heap module builds on this one
-
-        return heap_parameters(scene, rung_name, case)
-    if scene["scene"] == "silo":
-        from .scenes.silo.parameters import silo_parameters
-
-        return silo_parameters(scene, rung_name, case)
-    from .scenes.channel.parameters import channel_parameters
-
-    return channel_parameters(scene, rung_name, case)
+    """Deck numbers and template context of any scene (its registered declaration derives them)."""
+    return registry.get(scene["scene"]).parameters(scene, rung_name, case)
 
 
 def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | None = None) -> dict:
-    """Write one deck per stage (``init.lmp``, ``flow.lmp``, ``average.lmp``; the silo
-    has no separate flow stage), any data files, and ``params.json`` into ``outdir``.
+    """Write one deck per stage (the scene's ``stages``, default ``init``, ``flow``, ``average``),
+    any data files the scene asks for, and ``params.json`` into ``outdir``.
+
+    The template is ``<scene>.lmp.j2`` in the scene's package; ``context["data_files"]``
+    maps file names to functions that write them (e.g. an initial packing).
 
     Returns the parameter record (also written to ``params.json``).
     """
@@ -134,11 +119,8 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     data_files = context.pop("data_files", {})
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
-    if data_files:
-        from .scenes.silo.parameters import write_gas_data
-
-        for name, args in data_files.items():
-            write_gas_data(outdir / name, *args)
+    for name, write in data_files.items():
+        write(outdir / name)
     env = environment()
     template = env.get_template(f"{context['scene']}.lmp.j2")
     for stage in stages:

@@ -34,6 +34,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from . import registry
+
 
 class RunError(RuntimeError):
     """A LAMMPS run that failed; the message quotes the failing line and names the log."""
@@ -169,6 +171,8 @@ class CaseRunner:
         self.nprocs = max(1, int(nprocs))
         self.tools = tools or Tools.default()
         self.record = json.loads((self.case_dir / "params.json").read_text())
+        # the scene's hooks (flow verdict, early stop); a bare record gets the defaults
+        self.scene = registry.get(self.record["scene"]) if "scene" in self.record else registry.Scene()
 
     def _guard_stale(self) -> None:
         """Keep finished results of other parameters: move an old run aside, never overwrite it."""
@@ -300,9 +304,10 @@ class CaseRunner:
                 window = min(proto["steady_window"], 0.5 * t_seg * n_flow)
                 steady = detect_steady_state(t, u, window=window, rel_tol=proto["steady_rel_tol"],
                                              fluct_tol=proto["steady_fluct_tol"])
+                steady = self.scene.flow_verdict(steady, th, rec)
                 log(f"flow {k}/{n_flow}: t = {t[-1]:.0f}, u_cm = {u[-1]:.4g}, {steady.status}"
                     + (f" ({steady.reason})" if steady.reason else ""))
-                if steady.status in ("steady", "jammed"):
+                if steady.status in ("steady", "jammed", *self.scene.stop_statuses):
                     break
             if steady.status in ("steady", "completed") or proto.get("average_unsteady"):
                 n_planned = rec["n_average_segments"]
@@ -324,14 +329,10 @@ class CaseRunner:
         return self._conclude(steady, k, n_avg, unstable)
 
     def _early_stop(self, j: int) -> tuple[str, str] | None:
-        """A scene's named reason to end its schedule after segment ``j`` (the silo: clogged, emptied)."""
-        if self.record.get("scene") != "silo":
-            return None
-        from .scenes.silo.parameters import discharge_verdict
-
+        """The scene's named reason to end its schedule after averaging segment ``j``, or None."""
         th = self.thermo("average", upto=j)
-        return discharge_verdict(th[th["segment"] == f"average_{j:03d}"] if not th.empty else None,
-                                 self.record)
+        return self.scene.after_segment(th[th["segment"] == f"average_{j:03d}"] if not th.empty else None,
+                                        self.record)
 
     def _conclude(self, steady, k: int, n_avg: int, unstable: str | None) -> dict:
         rec = self.record

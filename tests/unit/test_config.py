@@ -4,8 +4,9 @@ import sys
 
 import pytest
 
+from granflow.campaign import load_campaign
 from granflow.cli import main
-from granflow.config import ConfigError, apply_overrides, load_campaign, load_scene
+from granflow.config import ConfigError, apply_overrides, load_scene
 
 
 def refuse(capsys, argv):

@@ -6,7 +6,8 @@ import subprocess
 
 import pytest
 
-from granflow.config import ConfigError, load_campaign
+from granflow.campaign import load_campaign
+from granflow.config import ConfigError
 from granflow.deck import STAGES, render_case
 from granflow.preflight import PreflightError
 from granflow.scenes.heap.parameters import feed_plan, species

@@ -13,7 +13,7 @@ COST_POINT = COST + "/{scene}/points/{point}"
 
 
 wildcard_constraints:
-    scene="channel|heap|silo",
+    scene="|".join(registry.names()),
     run=r"base|[a-z_]+~[0-9.e+-]+",
     point=r"base|[a-z_]+~[0-9.e+-]+",
 
@@ -60,10 +60,7 @@ def cost_collect_inputs(wildcards):
 def cost_study_json(wildcards):
     cs = COST_STUDIES[wildcards.scene]
     r = cs.base["rungs"][cs.rung]
-    note = {"channel": lambda: f"W = {r['W']:g} d_p, k_n = {r['k_n']:.0e}, dt = {r['dt_fraction']:g} t_c",
-            "heap": lambda: f"W = {r['W']:g} m, T = {r['T'] * 1e3:g} mm, t_c = {r['t_c']:g} s, dt = {r['dt_fraction']:g} t_c",
-            "silo": lambda: f"R_c = {r['R_c']:g} r_b, R = {cs.base['case']['R']:g} r_b, Y = {r['Y_factor']:g} Y_paper, "
-                            f"dt = {r['dt_fraction']:g} t_c"}[wildcards.scene]()
+    note = registry.get(wildcards.scene).cost_note(cs.base, cs.rung)
     return json.dumps({
         "rung": cs.rung, "base_note": note, "base_values": cs.base_values, "base_dt_fraction": r["dt_fraction"],
         "finest": {k: cs.finest(k) for k in cs.knobs}, "units": {k: cs.unit(k) for k in cs.knobs},

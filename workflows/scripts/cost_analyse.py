@@ -20,9 +20,10 @@ if status["dumps"] and status["status"] not in ("jammed", "unstable"):
     obs = measure_with_errors(scene, case_dir, record, point["t_average"], n_blocks=snakemake.params.n_blocks)
     note = ""
 else:
-    from granflow.headline import HEADLINE
+    from granflow import registry
 
-    obs = {k: {"x": float("nan"), "se": float("nan"), "n_blocks": 0, "label": lab} for k, lab in HEADLINE[scene]}
+    obs = {k: {"x": float("nan"), "se": float("nan"), "n_blocks": 0, "label": lab}
+           for k, lab in registry.get(scene).headline}
     obs["window"] = [float("nan"), float("nan")]
     note = f"not measured: {status['status']}: {status.get('reason')}"
 

@@ -24,9 +24,8 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+import granflow.scenes.channel.analysis as ch
 from granflow.plotting import MARKERS, _colour, _finish, _new_figure, _positive, _unavailable
-
-from . import analysis as ch
 
 #: Zone colours of the paper's figure 11 (plug is not sheared and not shown there).
 ZONE_COLOURS = {"wall": "red", "loose": "black", "dense": "saddlebrown", "plug": "0.6"}

@@ -9,8 +9,17 @@ import math
 
 from granflow.config import check_rung
 from granflow.contact import build_contact_model, sphere_mass
-from granflow.deck import SPIN_COLUMNS, STRESS_COLUMNS, Param, _number, case_values, species_counts, time_step
+from granflow.deck import SPIN_COLUMNS, STRESS_COLUMNS, Param, _number, species_counts, time_step
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
+
+
+def case_values(scene: dict, rung_name: str, case: dict | None = None) -> dict:
+    """Merge the scene's default case, the rung and a sweep point into one case dict."""
+    rung = check_rung(scene, rung_name)
+    merged = dict(scene["case"], **(case or {}))
+    if merged.get("W") is None:
+        merged["W"] = rung["W"]
+    return merged
 
 
 def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tuple[list[Param], dict]:

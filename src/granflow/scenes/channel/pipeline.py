@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from granflow.case import case_inputs
-from granflow.headline import _finite, _nan_observables
+from granflow.registry import finite as _finite
 from postproc.dump import particle_frames
 from postproc.fields import profile_from_frames
 
@@ -98,7 +98,7 @@ def channel_profile(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[flo
 def channel_observables(case_dir: str | Path, record: dict, t_window=None) -> dict:
     from .analysis import analyse_channel
 
-    out = _nan_observables("channel")
+    out = {}  # the scene fills what is not measured with NaN
     try:
         profile, _ = channel_profile(case_dir, t_window=t_window, record=record)
     except ValueError:  # no frame in the window

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 
 from granflow.case import case_inputs
-from granflow.headline import _finite, _nan_observables
+from granflow.registry import finite as _finite
 from postproc.dump import particle_frames
 
 
@@ -53,7 +53,7 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
         ``per_x, profile, collapse, surface, alpha_t, rise_by_x, phi_columns, deposit``.
     scalars : dict
     """
-    from . import analysis as hp
+    import granflow.scenes.heap.analysis as hp
 
     case_dir, record, status = case_inputs(case_dir, record)
     thermo = pd.read_csv(case_dir / "run" / "thermo.csv")
@@ -144,7 +144,7 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
 
 def heap_observables(case_dir: str | Path, record: dict, t_window=None) -> dict:
 
-    out = _nan_observables("heap")
+    out = {}  # the scene fills what is not measured with NaN
     try:
         _, s = heap_analysis(case_dir, t_window=t_window, record=record)
     except (ValueError, np.linalg.LinAlgError):

@@ -12,6 +12,7 @@ the gas positions reach LAMMPS as a data file of numbers written here.
 """
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -267,7 +268,8 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         "rim_type": len(sp) + 1,
         "species": [{"type": s["type"], "diameter": round(s["diameter"], 12), "mass": s["mass"]} for s in sp],
         "dump_columns": list(eff["dump_columns"]),
-        "data_files": {"atoms.data": (gas, sp, box, p["density"], rim)},
+        "data_files": {"atoms.data": functools.partial(write_gas_data, gas=gas, sp=sp, box=box,
+                                                       density=p["density"], rim=rim)},
     }
     record = {
         **record_head("silo", rung_name, case, rung, params, model),

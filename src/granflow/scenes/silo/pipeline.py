@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 
 from granflow.case import case_inputs
-from granflow.headline import _finite, _nan_observables
+from granflow.registry import finite as _finite
 from postproc.dump import particle_frames
 
 
@@ -61,12 +61,11 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
         ``flow`` (windowed W_f, W_r), ``fields``, ``contact``, ``kinetic_w<w>``.
     scalars : dict
     """
+    import granflow.scenes.silo.analysis as sl
     from postproc.contacts import read_contact_dump
     from postproc.coordinates import RZCoordinates
     from postproc.fields import FieldAccumulator
     from postproc.kernels import Gaussian
-
-    from . import analysis as sl
 
     case_dir, record, status = case_inputs(case_dir, record)
     th = silo_discharge_thermo(pd.read_csv(case_dir / "run" / "thermo.csv"))
@@ -158,7 +157,7 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
 def silo_observables(case_dir: str | Path, record: dict, t_max=None, steady=None) -> tuple[dict, tuple]:
     """Silo headline numbers and the steady window they came from (NaNs if none)."""
 
-    out = _nan_observables("silo")
+    out = {}  # the scene fills what is not measured with NaN
     _, s = silo_analysis(case_dir, t_max=t_max, steady=steady, record=record, headline_only=True)
     out.update({"W_f": _finite(s.get("W_f")), "profile_deviation": _finite(s.get("sqrt_profile_deviation")),
                 "h_c_over_R": _finite(s.get("h_c_over_R"))})

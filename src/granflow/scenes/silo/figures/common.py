@@ -7,10 +7,9 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+import granflow.scenes.silo.analysis as silo
 from granflow.plotting import NO_CASE, _colourbar, _finite, _frame, _label, _say, _scalar, _unavailable
 from granflow.plotting import _finish_cases as _finish_with_footer
-
-from .. import analysis as silo
 
 #: The paper's reference orifice, R = 12 r_b (figures 3, 6).
 R_REFERENCE = 12.0

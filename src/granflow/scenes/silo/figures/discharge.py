@@ -5,9 +5,9 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+import granflow.scenes.silo.analysis as silo
 from granflow.plotting import MARKERS, _col, _colour, _frame, _new_figure, _pm, _say, _scalar, _unavailable
 
-from .. import analysis as silo
 from .common import _case_name, _errorbar, _finish, _has, _map, _no_case, _reference
 
 

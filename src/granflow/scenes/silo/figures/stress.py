@@ -8,6 +8,7 @@ import pandas as pd
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
+import granflow.scenes.silo.analysis as silo
 from granflow.plotting import (
     MARKERS,
     _col,
@@ -22,7 +23,6 @@ from granflow.plotting import (
     _unavailable,
 )
 
-from .. import analysis as silo
 from .common import (
     LOG_RANGE,
     MAPS_PER_ROW,

@@ -1,0 +1,266 @@
+"""The scene registry: every scene is one package under :mod:`granflow.scenes`.
+
+A scene package ``granflow/scenes/<name>/`` defines ``SCENE``, an instance of a
+:class:`Scene` subclass that declares everything particular to the scene: its
+sweep axes, figures with captions, headline numbers, cost-study knobs, and the
+functions that derive a case's deck parameters, judge its run, analyse it and
+tabulate it. The generic layers (config validation, deck rendering, runner,
+Snakemake rules, report, cost study, CLI) find scenes only through
+:func:`scenes` and :func:`get` and never name one.
+
+Adding a scene means adding its package (with ``SCENE``), its scene file
+``config/scenes/<name>.yaml`` and its schema ``config/schema/<name>.schema.yaml``;
+nothing else. Packages are found by :mod:`pkgutil`, so there is no list to edit.
+"""
+from __future__ import annotations
+
+import importlib
+import math
+import pkgutil
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Callable, ClassVar
+
+import pandas as pd
+import yaml
+
+#: Where the scene packages live.
+SCENES_PACKAGE = "granflow.scenes"
+
+
+# ------------------------------------------------------------------ declarations
+@dataclass(frozen=True)
+class SweepAxis:
+    """One swept case key and how it appears in a case directory name (``<label>~<value>``).
+
+    Parameters
+    ----------
+    key : str
+        Key of the scene file's ``case`` section (and of the campaign's ``sweep``).
+    label : str
+        Directory label, e.g. ``phi`` for ``phi~0.6``.
+    scale : float
+        The directory shows ``scale`` x the value (the heap writes kg/s as g/s).
+    name : bool
+        True for a name from a fixed list (written as is), False for a number.
+    """
+
+    key: str
+    label: str
+    scale: float = 1.0
+    name: bool = False
+
+    def to_dir(self, value) -> str:
+        return str(value) if self.name else f"{float(value) * self.scale:g}"
+
+    def from_dir(self, text: str):
+        return text if self.name else float(text) / self.scale
+
+
+@dataclass(frozen=True)
+class FigureSpec:
+    """One figure of a scene: the function that draws it and its caption for the report.
+
+    ``draw(cases, path)`` takes the list built by :meth:`Scene.figure_cases` and
+    writes a PNG; ``paper`` names the paper figure it is the equivalent of.
+    """
+
+    draw: Callable
+    paper: str
+    caption: str = ""
+
+
+@dataclass(frozen=True)
+class Knob:
+    """A fidelity knob of the error-versus-cost study.
+
+    ``keys`` are dotted keys of the scene file (``{r}`` stands for the rung),
+    set to the value (``mode="set"``) or scaled by it (``mode="scale"``);
+    ``finest`` says which end of the list is the most accurate (``min`` or ``max``).
+    """
+
+    keys: tuple[str, ...]
+    mode: str
+    finest: str
+    unit: str
+
+
+class Scene:
+    """Base class of a scene declaration; a scene package sets ``SCENE = MyScene()``.
+
+    Class attributes to set: ``name``, ``summary`` (one line), ``paper``,
+    ``sweep`` (tuple of :class:`SweepAxis`), ``figures`` (name -> :class:`FigureSpec`),
+    ``table_caption``, ``table_sort`` (columns), ``headline`` ((key, label) pairs),
+    ``knobs`` (knob name -> :class:`Knob`). Methods with a default here may be
+    left alone; :meth:`parameters`, :meth:`analyse` and :meth:`figure_cases`
+    must be given.
+    """
+
+    name: ClassVar[str] = ""
+    summary: ClassVar[str] = ""
+    paper: ClassVar[str] = ""
+    sweep: ClassVar[tuple[SweepAxis, ...]] = ()
+    figures: ClassVar[dict[str, FigureSpec]] = {}
+    table_caption: ClassVar[str] = ""
+    table_sort: ClassVar[tuple[str, ...]] = ()
+    headline: ClassVar[tuple[tuple[str, str], ...]] = ()
+    knobs: ClassVar[dict[str, Knob]] = {}
+    #: statuses of :meth:`flow_verdict` that end the flow stage at once (besides steady and jammed)
+    stop_statuses: ClassVar[tuple[str, ...]] = ()
+
+    # -- where its files are ----------------------------------------------------------
+    @property
+    def package_dir(self) -> Path:
+        """The scene package's folder (its deck templates and captions live there)."""
+        return Path(importlib.import_module(type(self).__module__).__file__).parent
+
+    def captions(self) -> dict:
+        """``captions.yaml`` of the package: ``table`` and ``figures`` (name -> caption)."""
+        path = self.package_dir / "captions.yaml"
+        return yaml.safe_load(path.read_text()) if path.exists() else {"table": "", "figures": {}}
+
+    def figure_caption(self, name: str) -> str:
+        """The report caption of figure ``name`` (its spec's, else the package's captions.yaml)."""
+        return self.figures[name].caption or self.captions()["figures"].get(name, "")
+
+    def table_caption_text(self) -> str:
+        return self.table_caption or self.captions().get("table", "")
+
+    # -- configuration ------------------------------------------------------------------
+    def check(self, scene: dict, source: str) -> None:
+        """Cross-field checks of a scene file beyond its schema; raise ``ConfigError``."""
+
+    def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
+        """Refuse a sweep point that cannot run at ``rung`` (``ConfigError``); default: accept."""
+
+    def case_values(self, scene: dict, rung: str, case: dict | None = None) -> dict:
+        """The scene file's default case with a sweep point's values on top."""
+        return dict(scene["case"], **(case or {}))
+
+    # -- decks --------------------------------------------------------------------------
+    def parameters(self, scene: dict, rung: str, case: dict | None = None):
+        """``(params, context)``: the deck numbers and the template context (with ``record``)."""
+        raise NotImplementedError(f"scene {self.name!r} does not define parameters()")
+
+    def describe(self, record: dict) -> str:
+        """One line for ``granflow render``: the case's size and main numbers."""
+        return f"{record['parameters'].get('n_particles', '?')} particles"
+
+    def simulate_ranks(self, rung: str, cores: int) -> int:
+        """MPI ranks of one run: 1 for the small rungs (cases run side by side), all cores above."""
+        return 1 if rung in ("smoke", "demo") else cores
+
+    # -- running ------------------------------------------------------------------------
+    def flow_verdict(self, steady, thermo: pd.DataFrame, record: dict):
+        """Rename or replace the generic steady-state verdict of the flow stage (default: keep it)."""
+        return steady
+
+    def after_segment(self, segment_thermo: pd.DataFrame | None, record: dict) -> tuple[str, str] | None:
+        """A named reason ``(status, reason)`` to end the averaging early, or None to go on."""
+        return None
+
+    # -- analysis -----------------------------------------------------------------------
+    def analyse(self, case_dir: Path) -> tuple[dict[str, pd.DataFrame], dict]:
+        """``(tables, scalars)`` of one finished case; scalars carry ``status`` and ``provenance``."""
+        raise NotImplementedError(f"scene {self.name!r} does not define analyse()")
+
+    def table(self, rows: list[dict]) -> pd.DataFrame:
+        """One row per case (the scalars), sorted by the sweep axes."""
+        table = pd.DataFrame(rows)
+        keys = [k for k in (self.table_sort or [a.key for a in self.sweep]) if k in table]
+        return table.sort_values(keys) if keys and not table.empty else table
+
+    def analyse_threads(self, cores: int) -> int:
+        """Threads of one case's analysis (the compiled coarse-graining uses them); default 1."""
+        return 1
+
+    def figure_cases(self, cases: list[tuple[dict, dict[str, pd.DataFrame]]]) -> list[dict]:
+        """The figure functions' cases from each case's ``(scalars, tables)``."""
+        raise NotImplementedError(f"scene {self.name!r} does not define figure_cases()")
+
+    # -- the error-versus-cost study ----------------------------------------------------
+    def observables(self, case_dir: Path, record: dict, t_average: float,
+                    block: tuple[float, float] | None = None) -> tuple[dict, tuple[float, float]]:
+        """Headline numbers (``{key: value}``, NaN where not measurable) over the first ``t_average``
+        of the averaging stage, or over ``block`` of its window; and the window ``(t0, t1)`` used.
+
+        The generic study splits the returned window into equal blocks for the errors.
+        """
+        raise NotImplementedError(f"scene {self.name!r} has no headline observables")
+
+    def paper_reference(self, scene: dict) -> dict:
+        """Particle count and simulated time of the paper rung (for the cost extrapolation)."""
+        raise NotImplementedError(f"scene {self.name!r} has no paper reference")
+
+    def cost_note(self, scene: dict, rung: str) -> str:
+        """One line naming the cost study's base case in the figures' footers."""
+        return f"rung {rung}"
+
+    def nan_observables(self) -> dict:
+        return {key: float("nan") for key, _ in self.headline}
+
+    # -- naming a case ------------------------------------------------------------------
+    def case_dir(self, point: dict) -> str:
+        """Relative directory of a sweep point, e.g. ``W~20/phi~0.6``."""
+        return "/".join(f"{a.label}~{a.to_dir(point[a.key])}" for a in self.sweep)
+
+    def case_from_dir(self, rel: str) -> dict:
+        """Inverse of :meth:`case_dir`."""
+        parts = dict(p.split("~", 1) for p in rel.strip("/").split("/"))
+        return {a.key: a.from_dir(parts[a.label]) for a in self.sweep}
+
+    def sweep_points(self, scene: dict, sweep: dict, rung: str) -> list[dict]:
+        """Every combination of the campaign's sweep lists (a missing list: the default case's value)."""
+        points = [{}]
+        for axis in self.sweep:
+            values = sweep.get(axis.key) or [self.case_values(scene, rung)[axis.key]]
+            points = [dict(p, **{axis.key: v}) for p in points for v in values]
+        return points
+
+
+# ------------------------------------------------------------------------- lookup
+@lru_cache(maxsize=None)
+def _registry() -> dict[str, Scene]:
+    package = importlib.import_module(SCENES_PACKAGE)
+    out = {}
+    for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
+        if not info.ispkg:
+            continue
+        module = importlib.import_module(f"{SCENES_PACKAGE}.{info.name}")
+        scene = getattr(module, "SCENE", None)
+        if not isinstance(scene, Scene):
+            raise TypeError(f"{module.__name__} defines no SCENE (a granflow.registry.Scene instance)")
+        if scene.name != info.name:
+            raise TypeError(f"{module.__name__}.SCENE.name = {scene.name!r}: must equal the package name")
+        out[scene.name] = scene
+    return out
+
+
+def scenes() -> dict[str, Scene]:
+    """Every registered scene, by name (sorted)."""
+    return dict(_registry())
+
+
+def names() -> tuple[str, ...]:
+    return tuple(_registry())
+
+
+def get(name: str) -> Scene:
+    """The scene called ``name``; ``KeyError`` naming the registered ones otherwise."""
+    try:
+        return _registry()[name]
+    except KeyError:
+        raise KeyError(f"no scene {name!r}: registered scenes are {', '.join(_registry())}") from None
+
+
+def finite(value) -> float:
+    """``value`` as a float, NaN for anything that is not a finite number."""
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        return float("nan")
+    return value if math.isfinite(value) else float("nan")
+
+
+__all__ = ["Scene", "SweepAxis", "FigureSpec", "Knob", "scenes", "names", "get", "finite"]

@@ -1,0 +1,163 @@
+"""The channel scene's declaration: sweep, checks, analysis glue, table, figures, headline, cost knobs."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pandas as pd
+
+import granflow.scenes.channel.figures as figures
+from granflow.config import ConfigError
+from granflow.registry import FigureSpec, Knob, Scene, SweepAxis
+
+from .parameters import channel_parameters
+
+
+def _or_placeholder(draw):
+    """The figure, or with no averaged case a short note in its place rather than a failed campaign."""
+    def draw_or_say(cases, path):
+        if cases:
+            return draw(cases, path)
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(6, 2))
+        fig.text(0.5, 0.5, "no averaged case: every case is jammed, unsteady or unstable\n(see table.csv)",
+                 ha="center", va="center")
+        fig.savefig(path, dpi=150)
+        return fig
+
+    return draw_or_say
+
+
+def _check(cond: bool, msg: str) -> None:
+    if not cond:
+        raise ConfigError(msg)
+
+
+class ChannelScene(Scene):
+    name = "channel"
+    summary = "periodic vertical channel between two flat frictional walls (Debnath, Kesava Rao & Kumaran 2022)"
+    paper = "channel_debnath2022.md"
+    sweep = (SweepAxis("W", "W"), SweepAxis("phi_mean", "phi"))
+    figures = {
+        "fig04_velocity": FigureSpec(_or_placeholder(figures.fig_velocity_profiles), "4"),
+        "fig05c_ratio": FigureSpec(_or_placeholder(figures.fig_ratio_vs_phi), "5(c)"),
+        "fig06_stress": FigureSpec(_or_placeholder(figures.fig_stress_profiles), "6"),
+        "fig08_phi_shear_T": FigureSpec(_or_placeholder(figures.fig_phi_shear_temperature), "8"),
+        "fig11_rheology": FigureSpec(_or_placeholder(figures.fig_rheology), "11"),
+    }
+    table_sort = ("W", "phi_mean")
+    headline = (("u_ratio", "u_max/u_slip"), ("delta_over_W", "δ0.95/W"),
+                ("sigma_xx_over_W", "σxx/W"), ("eq31_exponent", "eq. 3.1 exponent"))
+    knobs = {
+        "dt_fraction": Knob(("rungs.{r}.dt_fraction",), "set", "min", "dt / t_c"),
+        "stiffness": Knob(("rungs.{r}.k_n",), "set", "max", "k_n, m_p g/d_p"),
+        "size": Knob(("rungs.{r}.W", "rungs.{r}.B", "rungs.{r}.H"), "scale", "max", "factor on W, B, H"),
+        "t_average": Knob(("rungs.{r}.t_average",), "set", "max", "averaging time, √(d_p/g)"),
+        "bin_width": Knob(("rungs.{r}.bin_width",), "set", "min", "bin width, d_p"),
+    }
+
+    # -- configuration ---------------------------------------------------------------
+    def check(self, scene: dict, source: str) -> None:
+        p = scene["particles"]
+        _check(len(p["diameters"]) == len(p["number_fractions"]),
+               f"{source}: particles.number_fractions has {len(p['number_fractions'])} entries, "
+               f"particles.diameters has {len(p['diameters'])}: allowed only equal lengths")
+        total = sum(p["number_fractions"])
+        _check(math.isclose(total, 1.0, abs_tol=1e-6),
+               f"{source}: particles.number_fractions sum to {total:g}: allowed sum = 1")
+        for name, r in scene["rungs"].items():
+            W = r["W"]
+            _check(2 * r["wall_bin_width"] + r["bin_width"] <= W,
+                   f"{source}: rungs.{name}.W = {W} leaves no interior bin: allowed W >= "
+                   f"2*wall_bin_width + bin_width = {2 * r['wall_bin_width'] + r['bin_width']}")
+            _check(r["t_segment"] <= r["t_flow_max"],
+                   f"{source}: rungs.{name}.t_segment = {r['t_segment']}: allowed <= t_flow_max = {r['t_flow_max']}")
+
+    def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
+        r = scene["rungs"][rung]
+        W = case.get("W") if case.get("W") is not None else r["W"]
+        _check(2 * r["wall_bin_width"] + r["bin_width"] <= W,
+               f"{source}: scenes.channel.sweep.W = {W} leaves no interior bin: allowed W >= "
+               f"{2 * r['wall_bin_width'] + r['bin_width']}")
+
+    def case_values(self, scene: dict, rung: str, case: dict | None = None) -> dict:
+        merged = dict(scene["case"], **(case or {}))
+        if merged.get("W") is None:
+            merged["W"] = scene["rungs"][rung]["W"]
+        return merged
+
+    # -- decks -----------------------------------------------------------------------
+    def parameters(self, scene: dict, rung: str, case: dict | None = None):
+        return channel_parameters(scene, rung, case)
+
+    def describe(self, record: dict) -> str:
+        prm = record["parameters"]
+        return f"W = {prm['W']:g} d_p, phi_mean = {prm['phi_mean']:g}, {prm['n_particles']} particles"
+
+    # -- analysis --------------------------------------------------------------------
+    def analyse(self, case_dir: Path):
+        from granflow.case import case_inputs
+
+        from .analysis import analyse_channel
+        from .pipeline import channel_profile, momentum_balance
+
+        case_dir, record, status = case_inputs(case_dir)
+        W, phi = record["parameters"]["W"], record["parameters"]["phi_mean"]
+        thermo = pd.read_csv(case_dir / "run" / "thermo.csv")
+        total_mass = sum(s["count"] * s["mass"] for s in record["species"])
+        if status["dumps"]:
+            profile, facts = channel_profile(case_dir)
+            scalars = analyse_channel(profile, W, phi)
+            window = thermo[thermo["stage"] == "average"]
+        else:
+            # not averaged (jammed, no steady state, unstable): an empty profile, the reason in the table
+            profile = pd.DataFrame(columns=["x", "x_lo", "x_hi"])
+            facts = {"n_particles": record["parameters"]["n_particles"], "n_frames": 0, "total_mass": total_mass}
+            scalars = {"notes": f"not averaged: {status['status']}"}
+            window = thermo
+        balance = momentum_balance(window, facts["total_mass"])
+        k = record["rung_knobs"]
+        scalars.update({
+            "rung": record["rung"], "W": W, "phi_mean": phi, "B": k["B"], "k_n": k["k_n"],
+            "dt": record["dt"], "n_particles": facts["n_particles"], "n_frames": facts["n_frames"],
+            "status": status["status"], "status_reason": status.get("reason"),
+            "max_overlap": status.get("max_overlap"), "dangerous_builds": status.get("dangerous_builds"),
+            "averaged_unsteady": bool(status["dumps"]) and status["status"] != "steady",
+            "momentum_residual": balance["residual"], "momentum_steady_residual": balance["steady_residual"],
+            "wall_force": balance["wall_force"], "weight": balance["weight"],
+            "matom_step_per_s": status.get("matom_step_per_s"),
+            "provenance": (f"rung {record['rung']} · W={W:g} d_p · B={k['B']:g} · k_n={k['k_n']:.0e} · "
+                           f"N={facts['n_particles']} · {status['status']}"),
+        })
+        return {"profile": profile}, scalars
+
+    def figure_cases(self, cases):
+        out = []
+        for s, tables in cases:
+            profile = tables.get("profile", pd.DataFrame())
+            if profile.empty:  # not averaged: shown in the table with its status, not in the figures
+                continue
+            out.append({"label": f"W={s['W']:g}, φ̄={s['phi_mean']:g}", "W": s["W"], "phi_mean": s["phi_mean"],
+                        "profile": profile, "scalars": s, "provenance": s["provenance"]})
+        return out
+
+    # -- the error-versus-cost study -------------------------------------------------------
+    def observables(self, case_dir, record, t_average, block=None):
+        from .pipeline import channel_observables
+
+        window = block or (0.0, t_average)
+        return dict(self.nan_observables(), **channel_observables(case_dir, record, t_window=window)), window
+
+    def paper_reference(self, scene: dict) -> dict:
+        _, context = self.parameters(scene, "paper")
+        rec = context["record"]
+        rung = rec["rung_knobs"]
+        return {"n_particles": int(rec["parameters"]["n_particles"]),
+                "sim_time": float(scene["protocol"]["settle_time"] * 1.2 + rung["t_flow_max"] + rung["t_average"]),
+                "dt": rec["dt"], "dt_fraction": rec["dt"] / rec["parameters"]["t_c_min"],
+                "how": "settle + t_flow_max + t_average"}
+
+    def cost_note(self, scene: dict, rung: str) -> str:
+        r = scene["rungs"][rung]
+        return f"W = {r['W']:g} d_p, k_n = {r['k_n']:.0e}, dt = {r['dt_fraction']:g} t_c"

@@ -1,0 +1,162 @@
+"""The heap scene's declaration: sweep, checks, analysis glue, table, figures, headline, cost knobs."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import granflow.scenes.heap.figures as figures
+from granflow.config import ConfigError
+from granflow.preflight import PreflightError
+from granflow.registry import FigureSpec, Knob, Scene, SweepAxis
+
+from .parameters import feed_plan, heap_parameters
+
+#: analysis tables of a case, in the order the figures read them
+TABLES = ("per_x", "profile", "collapse", "surface", "alpha_t", "rise_by_x", "phi_columns", "deposit")
+
+
+def _check(cond: bool, msg: str) -> None:
+    if not cond:
+        raise ConfigError(msg)
+
+
+class HeapScene(Scene):
+    name = "heap"
+    summary = "quasi-2D bounded heap filled from one end, inclined base and end wall (Fan et al. 2013)"
+    paper = "heap_fan2013.md"
+    # directories carry the feed rate in g/s: mdot~33 for 0.033 kg/s
+    sweep = (SweepAxis("mixture", "mix", name=True), SweepAxis("feed_rate", "mdot", scale=1000.0))
+    figures = {name: FigureSpec(draw, paper) for name, draw, paper in (
+        ("fig03_segregation", figures.fig03_segregation, "3(c)"),
+        ("fig04_surface", figures.fig04_surface, "4"),
+        ("fig05_velocity", figures.fig05_velocity, "5"),
+        ("fig06_streamwise", figures.fig06_streamwise, "6"),
+        ("fig07_collapse", figures.fig07_collapse, "7"),
+        ("fig08_normal", figures.fig08_normal, "8"),
+        ("fig09_all_cases", figures.fig09_all_cases, "9"),
+        ("fig10_scaled", figures.fig10_scaled, "10"),
+        ("fig11_qstar", figures.fig11_qstar, "11"))}
+    table_sort = ("mixture", "feed_rate")
+    headline = (("alpha", "α (deg)"), ("delta_over_d", "δ/d̄"), ("tail_exponent", "tail exponent"))
+    knobs = {
+        "dt_fraction": Knob(("rungs.{r}.dt_fraction",), "set", "min", "dt / t_c"),
+        "stiffness": Knob(("rungs.{r}.t_c",), "set", "min", "contact time t_c, s"),
+        "size": Knob(("rungs.{r}.W", "rungs.{r}.T", "case.feed_rate"), "scale", "max",
+                     "factor on length W, gap T and feed rate"),
+        "t_average": Knob(("rungs.{r}.t_average",), "set", "max", "averaging time, s"),
+        "bin_width": Knob(("rungs.{r}.bin_dz_u",), "set", "min", "velocity depth bin, d̄"),
+    }
+
+    # -- configuration ---------------------------------------------------------------
+    def check(self, scene: dict, source: str) -> None:
+        for name, mix in scene["particles"]["mixtures"].items():
+            d, f = mix["diameters"], mix["volume_fractions"]
+            _check(len(d) == len(f), f"{source}: particles.mixtures.{name}.volume_fractions has {len(f)} entries, "
+                                     f"diameters has {len(d)}: allowed only equal lengths")
+            _check(math.isclose(sum(f), 1.0, abs_tol=1e-6),
+                   f"{source}: particles.mixtures.{name}.volume_fractions sum to {sum(f):g}: allowed sum = 1")
+            _check(list(d) == sorted(d), f"{source}: particles.mixtures.{name}.diameters = {d}: "
+                                         f"allowed only increasing (species 1 is the small one)")
+        mix = scene["case"]["mixture"]
+        _check(mix in scene["particles"]["mixtures"],
+               f"{source}: case.mixture = {mix!r} is not allowed: allowed one of "
+               f"{', '.join(map(repr, scene['particles']['mixtures']))}")
+        for name, r in scene["rungs"].items():
+            _check(r["feed_width"] < r["W"], f"{source}: rungs.{name}.feed_width = {r['feed_width']}: "
+                                             f"allowed < W = {r['W']}")
+
+    def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
+        """A known mixture, and a feed rate the feed zone can deliver."""
+        mix, rate = case["mixture"], case["feed_rate"]
+        _check(mix in scene["particles"]["mixtures"],
+               f"{source}: scenes.heap.sweep.mixture = {mix!r} is not allowed: allowed one of "
+               f"{', '.join(map(repr, scene['particles']['mixtures']))}")
+        try:
+            feed_plan(scene, rung, dict(scene["case"], **case))
+        except PreflightError as exc:
+            raise ConfigError(f"{source}: scenes.heap.sweep.feed_rate = {rate} (mixture {mix}, rung {rung}) "
+                              f"is not allowed: {exc}") from None
+
+    # -- decks -----------------------------------------------------------------------
+    def parameters(self, scene: dict, rung: str, case: dict | None = None):
+        return heap_parameters(scene, rung, case)
+
+    def describe(self, record: dict) -> str:
+        prm = record["parameters"]
+        return (f"W = {prm['W']:g} m, feed rate {prm['feed_rate']:g} kg/s ({prm['feed_rate_planned']:.4g} planned), "
+                f"~{record['n_particles_estimate']} particles by the end")
+
+    def simulate_ranks(self, rung: str, cores: int) -> int:
+        """All cores from demo up (one large case, balanced along x).
+
+        Measured on 2 cores (demo heap, 11k particles, 3000 steps): 6.7 s on 2 ranks
+        with the x cuts balanced; the heap is the longest job of the demo campaign.
+        """
+        return 1 if rung == "smoke" else cores
+
+    # -- analysis --------------------------------------------------------------------
+    def analyse(self, case_dir: Path):
+        from granflow.case import case_inputs
+
+        from .pipeline import heap_analysis
+
+        case_dir, record, status = case_inputs(case_dir)
+        if status["dumps"]:
+            tables, scalars = heap_analysis(case_dir)
+            # the steady filling stage: the surface rises uniformly (paper fig. 4c) and the feed delivers its rate
+            problems = []
+            if not scalars["feed_rate_ok"]:
+                problems.append(f"feed rate {scalars['feed_rate_measured']:.4g} kg/s is "
+                                f"{100 * scalars['feed_rate_error']:+.1f} % off the requested {scalars['feed_rate']:.4g}")
+            if not scalars["rise_velocity_cv"] < 0.25:
+                problems.append(f"rise velocity varies by {100 * scalars['rise_velocity_cv']:.0f} % along the heap")
+            verdict = "steady" if not problems else "unsteady"
+        else:
+            tables, scalars = {}, {"notes": f"not averaged: {status['status']}"}
+            problems, verdict = [status.get("reason") or status["status"]], status["status"]
+        import pandas as pd
+
+        tables = {name: tables.get(name, pd.DataFrame()) for name in TABLES}
+        k = record["rung_knobs"]
+        n = scalars.get("n_particles", record.get("n_particles_estimate"))
+        scalars.update({
+            "rung": record["rung"], "mixture": record["case"]["mixture"], "feed_rate": record["case"]["feed_rate"],
+            "bidisperse": len(record["species"]) == 2,
+            "W": k["W"], "T": k["T"], "t_c": k["t_c"], "dt": record["dt"], "k_n": record["parameters"]["k_n"],
+            "status": verdict if status["status"] == "completed" else status["status"],
+            "status_reason": "; ".join(problems) or status.get("reason"),
+            "max_overlap": status.get("max_overlap"), "dangerous_builds": status.get("dangerous_builds"),
+            "matom_step_per_s": status.get("matom_step_per_s"), "loop_seconds": status.get("loop_seconds"),
+            "provenance": (f"rung {record['rung']} · W={k['W']:g} m · T={k['T'] * 1e3:g} mm · t_c={k['t_c']:g} s · "
+                           f"N={n} · {verdict}"),
+        })
+        return tables, scalars
+
+    def figure_cases(self, cases):
+        out = []
+        for s, tables in cases:
+            if tables["profile"].empty:  # not averaged: in the table with its status, not in the figures
+                continue
+            label = f"{s['mixture']}, {1000 * s['feed_rate']:g} g/s"
+            out.append({"label": label, "provenance": s["provenance"], "scalars": s, "bidisperse": s["bidisperse"],
+                        **{k: tables[k] for k in TABLES}, "deposit": tables["deposit"] if s["bidisperse"] else None})
+        return out
+
+    # -- the error-versus-cost study -------------------------------------------------------
+    def observables(self, case_dir, record, t_average, block=None):
+        from .pipeline import heap_observables
+
+        window = block or (0.0, t_average)
+        return dict(self.nan_observables(), **heap_observables(case_dir, record, t_window=window)), window
+
+    def paper_reference(self, scene: dict) -> dict:
+        _, context = self.parameters(scene, "paper")
+        rec = context["record"]
+        return {"n_particles": int(rec["n_particles_estimate"]),
+                "sim_time": float(rec["t_steady_estimate"] + rec["rung_knobs"]["t_average"]),
+                "dt": rec["dt"], "dt_fraction": rec["dt"] / rec["parameters"]["t_c_min"],
+                "how": "estimated filling time to a steady heap + t_average (particles at the end)"}
+
+    def cost_note(self, scene: dict, rung: str) -> str:
+        r = scene["rungs"][rung]
+        return f"W = {r['W']:g} m, T = {r['T'] * 1e3:g} mm, t_c = {r['t_c']:g} s, dt = {r['dt_fraction']:g} t_c"

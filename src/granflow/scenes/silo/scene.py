@@ -1,0 +1,164 @@
+"""The silo scene's declaration: sweep, checks, discharge verdict, analysis glue, table with the
+Beverloo fit, figures, headline, cost knobs."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+import granflow.scenes.silo.figures as figures
+from granflow.config import ConfigError
+from granflow.registry import FigureSpec, Knob, Scene, SweepAxis
+
+from .parameters import discharge_verdict, silo_parameters
+
+#: analysis tables of every case (plus kinetic_w<w> for each kernel width of cg.w_scan)
+TABLES = ("flow", "fields", "contact")
+
+
+def _check(cond: bool, msg: str) -> None:
+    if not cond:
+        raise ConfigError(msg)
+
+
+class SiloScene(Scene):
+    name = "silo"
+    summary = "3D flat-bottomed cylindrical silo discharging through a circular orifice (Rubio-Largo et al. 2016)"
+    paper = "silo_rubiolargo2016.md"
+    sweep = (SweepAxis("R", "R"),)
+    figures = {name: FigureSpec(getattr(figures, name), paper) for name, paper in (
+        ("fig02_flow_rate", "2"), ("fig03_fields", "3"), ("fig04_phi_orifice", "4"), ("fig05_vz_orifice", "5"),
+        ("fig06_contact_pressure", "6"), ("fig07_kinetic_pressure_maps", "7"), ("fig08_kinetic_axis", "8"),
+        ("fig09_kinetic_w", "9"), ("fig10_cumulative", "10"), ("fig11_partial", "11"),
+        ("fig12_partial_over_phi", "12"), ("fig13_beverloo", "Beverloo"))}
+    table_sort = ("R",)
+    headline = (("W_f", "steady W_f (kg/s)"), ("profile_deviation", "orifice profile vs √(1−(r/R)²)"),
+                ("h_c_over_R", "h_c/R"))
+    knobs = {
+        "dt_fraction": Knob(("rungs.{r}.dt_fraction",), "set", "min", "dt / t_c"),
+        "stiffness": Knob(("rungs.{r}.Y_factor",), "set", "max", "Y / Y_paper"),
+        "size": Knob(("rungs.{r}.R_c", "rungs.{r}.fill_height"), "scale", "max", "factor on R_c and fill height"),
+        "t_average": Knob(("rungs.{r}.t_discharge", "rungs.{r}.t_average"), "set", "max", "discharge time used, s"),
+        "bin_width": Knob(("cg.w_fields",), "set", "min", "kernel width w, r_b"),
+    }
+
+    # -- configuration ---------------------------------------------------------------
+    def check(self, scene: dict, source: str) -> None:
+        f = scene["particles"]["radius_fractions"]
+        _check(list(f) == sorted(f) and len(set(f)) == len(f),
+               f"{source}: particles.radius_fractions = {f}: allowed only strictly increasing (type 1 is the smallest)")
+        _check(set(scene["effects"]["walls"]) == {"side", "floor"},
+               f"{source}: effects.walls = {scene['effects']['walls']}: allowed [side, floor] (the silo needs both)")
+        _check(not scene["effects"]["reinsert"] or scene["effects"]["deletion"],
+               f"{source}: effects.reinsert = true needs effects.deletion = true: allowed reinsert only with deletion")
+
+    def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
+        """The orifice must fit the rung's silo."""
+        R_c, R = scene["rungs"][rung]["R_c"], case["R"]
+        _check(R <= R_c - 2, f"{source}: scenes.silo.sweep.R = {R} (in r_b) does not fit the {rung} silo of "
+                             f"R_c = {R_c} r_b: allowed 1 <= R <= R_c - 2 = {R_c - 2}")
+
+    # -- decks and runs --------------------------------------------------------------
+    def parameters(self, scene: dict, rung: str, case: dict | None = None):
+        return silo_parameters(scene, rung, case)
+
+    def describe(self, record: dict) -> str:
+        return f"R = {record['R_over_rb']:g} r_b, R_c = {record['R_c']:g} m, {record['n_particles']} particles"
+
+    def after_segment(self, segment_thermo, record):
+        """``clogged`` or ``completed`` (emptied) after a discharge segment: see :func:`discharge_verdict`."""
+        return discharge_verdict(segment_thermo, record)
+
+    # -- analysis --------------------------------------------------------------------
+    def analyse_threads(self, cores: int) -> int:
+        return cores
+
+    def analyse(self, case_dir: Path):
+        from granflow.case import case_inputs
+
+        from .pipeline import silo_analysis
+
+        case_dir, record, status = case_inputs(case_dir)
+        if status["dumps"] and status["status"] in ("completed", "clogged"):
+            tables, scalars = silo_analysis(case_dir)
+            verdict = "steady" if "W_f" in scalars else "unsteady"
+        else:
+            tables, scalars, verdict = {}, {}, status["status"]
+        names = list(TABLES) + [f"kinetic_w{w:g}" for w in record["cg"]["w_scan"]]
+        tables = {name: tables.get(name, pd.DataFrame()) for name in names}
+        k = record["rung_knobs"]
+        run_status = status["status"]
+        scalars.update({
+            "rung": record["rung"], "R": record["R"], "R_over_rb": record["R_over_rb"], "R_c": record["R_c"],
+            "r_b": record["r_b"], "radii": [s["radius"] for s in record["species"]], "density": record["density"],
+            "gravity": record["gravity"], "reinsert": record["reinsert"], "Y": record["Y"], "k_n": record["k_n"],
+            "t_c_min": record["parameters"]["t_c_min"], "dt": record["dt"], "n_particles": record["n_particles"],
+            "status": verdict if run_status == "completed" else run_status,
+            "status_reason": scalars.get("steady_reason") if run_status == "completed" else status.get("reason"),
+            "run_reason": status.get("reason"),
+            "max_overlap": status.get("max_overlap"), "dangerous_builds": status.get("dangerous_builds"),
+            "matom_step_per_s": status.get("matom_step_per_s"), "loop_seconds": status.get("loop_seconds"),
+            "label": f"R = {record['R_over_rb']:g} r_b",
+            "provenance": (f"rung {record['rung']} · R_c={k['R_c']:g} r_b · Y={record['Y']:.3g} Pa "
+                           f"(k_n={record['k_n']:.3g} N/m) · t_c={record['parameters']['t_c_min']:.2g} s · "
+                           f"N={record['n_particles']} · {'re-insertion' if record['reinsert'] else 'no re-insertion'} · "
+                           f"{verdict if run_status == 'completed' else run_status}"),
+        })
+        return tables, scalars
+
+    def table(self, rows):
+        """One row per orifice radius, with the Beverloo fit over the steady ones on every row."""
+        from .analysis import beverloo_fit, mean_diameter
+
+        table = pd.DataFrame(rows).sort_values("R")
+        for col in ("W_f", "W_f_se", "rho_bulk"):
+            if col not in table:
+                table[col] = np.nan
+        ok = table[np.isfinite(table["W_f"]) & (table["status"] == "steady")]
+        fit = {"beverloo_n": len(ok)}
+        if len(ok) >= 3:
+            try:
+                res = beverloo_fit(2 * ok["R"], ok["W_f"], ok["W_f_se"], rho_b=float(ok["rho_bulk"].mean()),
+                                   g=float(ok["gravity"].iloc[0]), d=mean_diameter(ok["radii"].iloc[0]))
+                fit.update({f"beverloo_{k}": v for k, v in res.items() if np.isscalar(v)})
+            except ValueError as exc:
+                fit["beverloo_note"] = str(exc)
+        else:
+            fit["beverloo_note"] = f"{len(ok)} steady orifice sizes: a Beverloo fit needs at least 3"
+        for key, value in fit.items():
+            table[key] = value
+        return table.drop(columns=[c for c in ("radii",) if c in table])
+
+    def figure_cases(self, cases):
+        out = []
+        for s, tables in cases:
+            if tables["fields"].empty:  # no steady window: in the table with its status, not in the figures
+                continue
+            scan = {float(name.split("_w", 1)[1]) * s["r_b"]: t for name, t in tables.items()
+                    if name.startswith("kinetic_w")}
+            out.append({"label": s["label"], "provenance": s["provenance"], "scalars": s, "flow": tables["flow"],
+                        "fields": tables["fields"], "contact": tables["contact"], "kinetic_scan": scan})
+        return out
+
+    # -- the error-versus-cost study -------------------------------------------------------
+    def observables(self, case_dir, record, t_average, block=None):
+        """Over the discharge up to ``t_average`` after the opening, whose steady part the analysis finds
+        (the returned window); ``block`` imposes a part of it."""
+        from .pipeline import silo_observables
+
+        obs, window = silo_observables(case_dir, record, t_max=t_average, steady=block)
+        return dict(self.nan_observables(), **obs), window
+
+    def paper_reference(self, scene: dict) -> dict:
+        _, context = self.parameters(scene, "paper")
+        rec = context["record"]
+        return {"n_particles": int(rec["n_particles"]),
+                "sim_time": float(scene["protocol"]["t_settle_max"] + rec["rung_knobs"]["t_discharge"]),
+                "dt": rec["dt"], "dt_fraction": rec["dt"] / rec["parameters"]["t_c_min"],
+                "how": "longest settling + t_discharge"}
+
+    def cost_note(self, scene: dict, rung: str) -> str:
+        r = scene["rungs"][rung]
+        return (f"R_c = {r['R_c']:g} r_b, R = {scene['case']['R']:g} r_b, Y = {r['Y_factor']:g} Y_paper, "
+                f"dt = {r['dt_fraction']:g} t_c")

@@ -1,0 +1,166 @@
+"""Scene "chute": steady granular flow down a rough inclined plane.
+
+Silbert, Ertas, Grest, Halsey, Levine & Plimpton (2001), Phys. Rev. E 64, 051302.
+Monodisperse spheres on a rough base of frozen particles, periodic in x (flow) and
+y, free surface on top, gravity tilted by theta (LAMMPS ``fix gravity ... chute``).
+The checks: the total stress ratio :math:`-\\sigma_{xz}/\\sigma_{zz} = \\tan\\theta` in
+the bulk, :math:`\\sigma_{zz}` equal to the weight of the material above, the Bagnold
+velocity profile :math:`u \\propto h^{3/2} - (h - z)^{3/2}`, and the regimes (arrested
+below :math:`\\theta_{stop}(h)`, steady, accelerating).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from granflow.config import ConfigError
+from granflow.registry import FigureSpec, Knob, Scene, SweepAxis, finite
+
+from . import analysis, figures
+from .deck import chute_parameters
+
+
+class ChuteScene(Scene):
+    """The chute scene declaration (see the module docstring)."""
+
+    name = "chute"
+    summary = "steady flow down a rough inclined plane: stress ratio tan(theta), weight, Bagnold profile, regimes"
+    paper = "Silbert, Ertas, Grest, Halsey, Levine & Plimpton (2001), Phys. Rev. E 64, 051302"
+    sweep = (SweepAxis("theta_deg", "theta"),)
+    figures = {
+        "fig_profiles": FigureSpec(
+            figures.fig_profiles, "Silbert et al. 2001, figs. 3-5 (velocity, packing, temperature profiles)",
+            "Height profiles at each angle: downslope velocity :math:`u_x(z)` with the Bagnold fit "
+            ":math:`A[h^{3/2} - (h-z)^{3/2}]` over the bulk (dashed), volume fraction :math:`\\phi(z)` and "
+            "granular temperature :math:`T(z)`. The paper finds the Bagnold profile in the bulk, deviations "
+            "within a few d of the base and the surface, and :math:`\\phi` nearly uniform, lower at larger "
+            ":math:`\\theta`."),
+        "fig_stress": FigureSpec(
+            figures.fig_stress, "Silbert et al. 2001, section III (momentum balance)",
+            "Left: total stress ratio :math:`-\\sigma_{xz}/\\sigma_{zz}` against height, with "
+            ":math:`\\tan\\theta` (dotted); the grey band is the bulk. Right: :math:`\\sigma_{zz}` against the "
+            "weight of the material above, :math:`g\\cos\\theta\\int_z^h\\rho\\,dz'` (the line is equality). "
+            "In steady uniform flow both hold exactly at every height (the paper)."),
+        "fig_regimes": FigureSpec(
+            figures.fig_regimes, "Silbert et al. 2001, fig. 2 (flow regimes)",
+            "Outcome and depth-averaged speed against the angle; the shaded band is the paper's steady "
+            "range (about 20-26 degrees for h of 20-40 d; thinner beds stop at higher angles)."),
+    }
+    table_caption = ("One row per angle: status, bulk stress ratio against tan(theta), weight-check residual, "
+                     "Bagnold fit and bulk packing; the provenance column names the rung and size.")
+    table_sort = ("theta",)
+    # a bed that stopped will not start again: end the flow stage at once
+    stop_statuses = ("arrested",)
+    headline = (
+        ("stress_ratio_error", "bulk stress ratio / tan(theta) - 1"),
+        ("bagnold_A", "Bagnold amplitude A, sqrt(g/d)/d^(3/2)"),
+        ("phi_bulk", "bulk volume fraction"),
+    )
+    knobs = {
+        "dt_fraction": Knob(keys=("rungs.{r}.dt_fraction",), mode="set", finest="min", unit="dt / t_c"),
+        "stiffness": Knob(keys=("rungs.{r}.k_n",), mode="set", finest="max", unit="k_n, m g/d"),
+        "size": Knob(keys=("rungs.{r}.H", "rungs.{r}.Lx", "rungs.{r}.Ly"), mode="scale", finest="max",
+                     unit="x rung size"),
+        "t_average": Knob(keys=("rungs.{r}.t_average",), mode="set", finest="max", unit="sqrt(d/g)"),
+        "bin_width": Knob(keys=("rungs.{r}.bin_width",), mode="set", finest="min", unit="d"),
+    }
+
+    # -- configuration ------------------------------------------------------------------
+    def check(self, scene: dict, source: str) -> None:
+        """Cross-field checks: segment lengths, bulk margins that leave a bulk, a base that exists."""
+        for name, r in scene["rungs"].items():
+            for key in ("t_segment", "dump_interval", "thermo_interval"):
+                limit = "t_flow_max" if key == "t_segment" else "t_segment"
+                if r[key] > r[limit]:
+                    raise ConfigError(f"{source}: rungs.{name}.{key} = {r[key]}: allowed <= {limit} = {r[limit]}")
+            if r["dump_interval"] > r["t_average"]:
+                raise ConfigError(f"{source}: rungs.{name}.dump_interval = {r['dump_interval']}: "
+                                  f"allowed <= t_average = {r['t_average']}")
+            if 2 * r["bulk_margin"] + r["bin_width"] > r["H"]:
+                raise ConfigError(f"{source}: rungs.{name}.bulk_margin = {r['bulk_margin']} leaves no bulk in a "
+                                  f"bed of H = {r['H']}: allowed bulk_margin <= (H - bin_width)/2 = "
+                                  f"{(r['H'] - r['bin_width']) / 2:g}")
+        if "paper" in scene["rungs"] and scene["rungs"]["paper"]["k_n"] != 2.0e5:
+            raise ConfigError(f"{source}: rungs.paper.k_n = {scene['rungs']['paper']['k_n']}: allowed 2e5 "
+                              f"(the paper's stiffness)")
+
+    def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
+        theta = self.case_values(scene, rung, case)["theta_deg"]
+        if not 0.0 < float(theta) <= 60.0:
+            raise ConfigError(f"{source}: theta_deg = {theta}: allowed 0 < theta_deg <= 60")
+
+    # -- decks --------------------------------------------------------------------------
+    def parameters(self, scene: dict, rung: str, case: dict | None = None):
+        return chute_parameters(scene, rung, case)
+
+    def describe(self, record: dict) -> str:
+        p, r = record["parameters"], record["rung_knobs"]
+        return (f"theta {p['theta_deg']:g} deg, {p['n_particles']} particles, {r['Lx']:g}x{r['Ly']:g}x{r['H']:g} d, "
+                f"k_n {p['k_n']:.3g}, dt {record['dt']:.3g}")
+
+    # -- running ------------------------------------------------------------------------
+    def flow_verdict(self, steady, thermo: pd.DataFrame, record: dict):
+        """``arrested`` for a bed that stopped, ``accelerating`` for one still speeding up.
+
+        Arrested: the generic ``jammed``, or a mean :math:`u_{cm}` below
+        ``protocol.arrest_speed`` over the last window. Accelerating: no steady
+        state and a positive slope of :math:`u_{cm}(t)` over the last window.
+        """
+        proto = record["protocol"]
+        if steady.status == "jammed" or (np.isfinite(steady.mean) and abs(steady.mean) < proto["arrest_speed"]
+                                         and steady.status != "steady"):
+            return dataclasses.replace(steady, status="arrested",
+                                       reason=f"the bed stopped: {steady.reason}")
+        if steady.status == "no_steady_state" and np.isfinite(steady.slope) and steady.slope > 0:
+            return dataclasses.replace(steady, status="accelerating",
+                                       reason=f"u_cm still rising ({steady.slope:.3g} per time unit): {steady.reason}")
+        return steady
+
+    # -- analysis -----------------------------------------------------------------------
+    def analyse(self, case_dir: Path):
+        return analysis.analyse_case(case_dir)
+
+    def figure_cases(self, cases):
+        out = []
+        for scalars, tables in cases:
+            out.append({"scalars": scalars, "profile": tables.get("profile")})
+        return sorted(out, key=lambda c: c["scalars"].get("theta", 0.0))
+
+    # -- the error-versus-cost study ----------------------------------------------------
+    def observables(self, case_dir: Path, record: dict, t_average: float, block=None):
+        """Headline numbers over the first ``t_average`` of the averaging stage (or ``block`` of it)."""
+        import json
+
+        window = block or (0.0, t_average)
+        case_dir = Path(case_dir)
+        status = json.loads((case_dir / "run" / "status.json").read_text())
+        got = analysis.case_profile(case_dir, record, status, window)
+        if got is None:
+            return self.nan_observables(), window
+        checks = analysis.profile_checks(got[0], float(record["parameters"]["theta_deg"]),
+                                         float(record["parameters"]["base_height"]),
+                                         record["rung_knobs"]["bulk_margin"])
+        return {key: finite(checks.get(key)) for key, _ in self.headline}, window
+
+    def paper_reference(self, scene: dict) -> dict:
+        params, context = chute_parameters(scene, "paper")
+        rec = context["record"]
+        t_c = rec["parameters"]["t_c_min"]
+        sim_time = scene["rungs"]["paper"]["t_flow_max"] + scene["rungs"]["paper"]["t_average"]
+        return {"n_particles": rec["parameters"]["n_particles"], "sim_time": sim_time, "dt": rec["dt"],
+                "dt_fraction": rec["dt"] / t_c,
+                "how": "paper rung: Lx x Ly x H with phi_fill, flow t_flow_max then average t_average at dt"}
+
+    def cost_note(self, scene: dict, rung: str) -> str:
+        r = scene["rungs"][rung]
+        return (f"chute rung {rung}: {r['Lx']:g}x{r['Ly']:g}x{r['H']:g} d, k_n {r['k_n']:.3g}, "
+                f"theta {scene['case']['theta_deg']:g} deg")
+
+
+SCENE = ChuteScene()
+
+__all__ = ["SCENE", "ChuteScene"]

@@ -116,3 +116,20 @@ def test_every_rung_passes_skiprun(chute, tmp_path, lmp, rung):
         errors = [l for l in proc.stdout.splitlines() if l.startswith("ERROR")]
         assert proc.returncode == 0 and not errors, f"{rung}/{stage}: {errors or proc.stdout[-2000:]}"
     assert (run / "init.restart").exists()
+
+
+def test_cost_study_takes_the_chute(root, chute):
+    """The campaign's chute study: its knobs set the scene's keys, every variant renders (preflight)."""
+    from granflow.campaign import load_campaign
+
+    cs = load_campaign(root / "config" / "config.yaml", root=root)["cost_studies"]["chute"]
+    assert cs.base["case"]["theta_deg"] == 24.0
+    rung = cs.base["rungs"][cs.rung]
+    run = cs.scenes["size~1.5"]["rungs"][cs.rung]
+    # the size knob scales the bed depth and both periodic lengths, nothing else
+    assert (run["H"], run["Lx"], run["Ly"]) == (1.5 * rung["H"], 1.5 * rung["Lx"], 1.5 * rung["Ly"])
+    assert run["k_n"] == rung["k_n"]
+    stiff = cs.scenes["stiffness~200000"]["rungs"][cs.rung]
+    assert stiff["k_n"] == 2.0e5 and stiff["dt_fraction"] == rung["dt_fraction"]
+    # the post-processing knobs reuse the base run
+    assert cs.point("bin_width~0.5")["run"] == "base" and cs.point("t_average~5")["run"] == "base"

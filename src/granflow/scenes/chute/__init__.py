@@ -11,7 +11,6 @@ below :math:`\\theta_{stop}(h)`, steady, accelerating).
 from __future__ import annotations
 
 import dataclasses
-import math
 from pathlib import Path
 
 import numpy as np

@@ -165,7 +165,8 @@ def validate(data: dict, schema_name: str, source: str = "config") -> None:
         raise ConfigError("\n".join(_format_error(e, source) for e in errors))
 
 
-def _check(cond: bool, msg: str) -> None:
+def require(cond: bool, msg: str) -> None:
+    """Refuse with ``msg`` (a :class:`ConfigError` naming key, value and allowed range) unless ``cond``."""
     if not cond:
         raise ConfigError(msg)
 
@@ -179,9 +180,9 @@ def validate_scene(scene: dict, source: str = "scene") -> dict:
     validate(scene, name, source)
     registry.get(name).check(scene, source)
     for rname, r in scene["rungs"].items():
-        _check(r["dump_interval"] <= r["t_average"],
+        require(r["dump_interval"] <= r["t_average"],
                f"{source}: rungs.{rname}.dump_interval = {r['dump_interval']}: allowed <= t_average = {r['t_average']}")
-        _check(r["thermo_interval"] <= r["t_segment"],
+        require(r["thermo_interval"] <= r["t_segment"],
                f"{source}: rungs.{rname}.thermo_interval = {r['thermo_interval']}: allowed <= t_segment = {r['t_segment']}")
     return scene
 
@@ -203,7 +204,7 @@ def validate_campaign_scenes(data: dict, root: Path, source: str = "config") -> 
     path = source
     validate(data, "config", source=source)
     for name, sc in data.get("scenes", {}).items():
-        _check(name in registry.names(), f"{path}: scenes.{name} is not allowed: allowed one of "
+        require(name in registry.names(), f"{path}: scenes.{name} is not allowed: allowed one of "
                                          f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
         if not sc.get("enabled", True):
             continue
@@ -211,10 +212,10 @@ def validate_campaign_scenes(data: dict, root: Path, source: str = "config") -> 
         if not scene_path.is_absolute():
             scene_path = root / scene_path
         scene = load_scene(scene_path)
-        _check(scene["scene"] == name, f"{path}: scenes.{name}.scene_file = {sc.get('scene_file')!r} describes "
+        require(scene["scene"] == name, f"{path}: scenes.{name}.scene_file = {sc.get('scene_file')!r} describes "
                                        f"the {scene['scene']} scene: allowed a {name} scene file")
         rung = data["rung"]
-        _check(rung in scene["rungs"],
+        require(rung in scene["rungs"],
                f"{path}: rung = {rung!r} is not defined in {scene_path}: allowed {', '.join(scene['rungs'])}")
         _check_sweep(name, sc.get("sweep") or {}, scene, rung, path)
         sc["scene"] = scene
@@ -227,7 +228,7 @@ def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str) -> N
     axes = {a.key for a in sc.sweep}
     case_schema = load_schema(name)["properties"]["case"]["properties"]
     for key, values in sweep.items():
-        _check(key in axes, f"{path}: unknown key scenes.{name}.sweep.{key} (value {values!r}); "
+        require(key in axes, f"{path}: unknown key scenes.{name}.sweep.{key} (value {values!r}); "
                             f"allowed keys here: {', '.join(sorted(axes))}")
         schema = {k: v for k, v in case_schema[key].items() if k != "default"}
         if isinstance(schema.get("type"), list):  # a sweep lists values: null (= the rung's default) is not one

@@ -92,6 +92,45 @@ def record_head(scene_name: str, rung_name: str, case: dict, rung: dict, params:
     }
 
 
+@dataclass(frozen=True)
+class StepClock:
+    """Times of a deck in whole time steps ``dt``.
+
+    ``steps(t)`` rounds a time to steps (at least one); ``thermo_multiple(t)`` to a
+    whole number of thermo intervals, so that segments and dumps end on thermo rows
+    (every row then closes a full interval of an every-step average).
+    """
+
+    dt: float
+    thermo_interval: float | None = None
+
+    def steps(self, t: float) -> int:
+        return max(1, int(round(t / self.dt)))
+
+    @property
+    def n_thermo(self) -> int:
+        return self.steps(self.thermo_interval)
+
+    def thermo_multiple(self, t: float) -> int:
+        n = self.n_thermo
+        return n * max(1, int(round(t / self.dt / n)))
+
+
+def rain_lattice(n_particles: int, v_mean: float, fill_packing: float, d_max: float,
+                 span_1: float, span_2: float) -> tuple[float, float, float, int]:
+    """Cells of the lattice gas that rains into a box: ``(a, a_1, a_2, n_layers)``.
+
+    A cell holds about one particle at the volume fraction ``fill_packing``
+    (:math:`a = (\\langle v\\rangle/\\phi_{fill})^{1/3}`), never narrower than
+    1.02 ``d_max``; the two horizontal spans are divided into whole cells
+    (``a_1``, ``a_2``, which the caller checks against ``d_max``), and
+    ``n_layers`` layers of cells hold ``n_particles`` sites.
+    """
+    a = max((v_mean / fill_packing) ** (1 / 3), 1.02 * d_max)
+    n_1, n_2 = max(1, int(span_1 // a)), max(1, int(span_2 // a))
+    return a, span_1 / n_1, span_2 / n_2, math.ceil(n_particles / (n_1 * n_2))
+
+
 def time_step(rung: dict, model: ContactModel) -> float:
     """The rung's explicit ``dt`` or ``dt_fraction`` x the shortest contact time."""
     if rung.get("dt") is not None:

@@ -9,7 +9,16 @@ import math
 
 from granflow.config import check_rung
 from granflow.contact import build_contact_model, sphere_mass
-from granflow.deck import SPIN_COLUMNS, STRESS_COLUMNS, Param, _number, species_counts, time_step
+from granflow.deck import (
+    SPIN_COLUMNS,
+    STRESS_COLUMNS,
+    Param,
+    StepClock,
+    _number,
+    rain_lattice,
+    species_counts,
+    time_step,
+)
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
 
@@ -48,14 +57,10 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
     H_per = v_particles / (case["phi_mean"] * W * B)
     # lattice of the raining gas: cells of about v_mean/fill_packing, never
     # narrower than the largest diameter; enough layers for n_particles sites
-    fill = scene["protocol"]["fill_packing"]
     d_max = max(diameters)
-    a = max((v_mean / fill) ** (1 / 3), 1.02 * d_max)
-    nx, nz = max(1, int((W - 1.2) // a)), max(1, int(B // a))
-    a_x, a_z = (W - 1.2) / nx, B / nz
+    a, a_x, a_z, n_layers = rain_lattice(n_particles, v_mean, scene["protocol"]["fill_packing"], d_max, W - 1.2, B)
     if min(a_x, a_z) < d_max:
         raise PreflightError(f"channel W = {W:g}, B = {B:g} too small for one lattice cell of {d_max:g} d_p")
-    n_layers = math.ceil(n_particles / (nx * nz))
     fill_height = 1.2 + n_layers * a + 1.0
 
     # the fastest expected motion: free fall of the gas from the top of the fill
@@ -64,15 +69,10 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
     skin = scene["contact"]["neighbor_skin"]
     neigh = neighbor_settings(diameters, skin, dt, v_max)
 
-    def steps(t: float) -> int:
-        return max(1, int(round(t / dt)))
-
     # Segments and dump intervals are whole multiples of the thermo interval, so
     # every thermo row closes a full interval of the every-step wall-force average.
-    n_thermo = steps(rung["thermo_interval"])
-
-    def thermo_multiple(t: float) -> int:
-        return n_thermo * max(1, int(round(t / dt / n_thermo)))
+    clock = StepClock(dt, rung["thermo_interval"])
+    steps, thermo_multiple, n_thermo = clock.steps, clock.thermo_multiple, clock.n_thermo
 
     params = [
         Param("W", W, "channel width (walls at x = 0 and x = W), d_p"),

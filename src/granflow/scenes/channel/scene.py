@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 
 import granflow.scenes.channel.figures as figures
-from granflow.config import ConfigError
+from granflow.config import require
 from granflow.registry import FigureSpec, Knob, Scene, SweepAxis
 
 from .parameters import channel_parameters
@@ -27,11 +27,6 @@ def _or_placeholder(draw):
         return fig
 
     return draw_or_say
-
-
-def _check(cond: bool, msg: str) -> None:
-    if not cond:
-        raise ConfigError(msg)
 
 
 class ChannelScene(Scene):
@@ -60,24 +55,24 @@ class ChannelScene(Scene):
     # -- configuration ---------------------------------------------------------------
     def check(self, scene: dict, source: str) -> None:
         p = scene["particles"]
-        _check(len(p["diameters"]) == len(p["number_fractions"]),
+        require(len(p["diameters"]) == len(p["number_fractions"]),
                f"{source}: particles.number_fractions has {len(p['number_fractions'])} entries, "
                f"particles.diameters has {len(p['diameters'])}: allowed only equal lengths")
         total = sum(p["number_fractions"])
-        _check(math.isclose(total, 1.0, abs_tol=1e-6),
+        require(math.isclose(total, 1.0, abs_tol=1e-6),
                f"{source}: particles.number_fractions sum to {total:g}: allowed sum = 1")
         for name, r in scene["rungs"].items():
             W = r["W"]
-            _check(2 * r["wall_bin_width"] + r["bin_width"] <= W,
+            require(2 * r["wall_bin_width"] + r["bin_width"] <= W,
                    f"{source}: rungs.{name}.W = {W} leaves no interior bin: allowed W >= "
                    f"2*wall_bin_width + bin_width = {2 * r['wall_bin_width'] + r['bin_width']}")
-            _check(r["t_segment"] <= r["t_flow_max"],
+            require(r["t_segment"] <= r["t_flow_max"],
                    f"{source}: rungs.{name}.t_segment = {r['t_segment']}: allowed <= t_flow_max = {r['t_flow_max']}")
 
     def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
         r = scene["rungs"][rung]
         W = case.get("W") if case.get("W") is not None else r["W"]
-        _check(2 * r["wall_bin_width"] + r["bin_width"] <= W,
+        require(2 * r["wall_bin_width"] + r["bin_width"] <= W,
                f"{source}: scenes.channel.sweep.W = {W} leaves no interior bin: allowed W >= "
                f"{2 * r['wall_bin_width'] + r['bin_width']}")
 

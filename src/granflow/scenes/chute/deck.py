@@ -17,7 +17,7 @@ from pathlib import Path
 
 from granflow.config import ConfigError, check_rung
 from granflow.contact import Contact, build_contact_model, contact_time, sphere_mass
-from granflow.deck import STRESS_COLUMNS, Param, _number, record_head, time_step
+from granflow.deck import STRESS_COLUMNS, Param, StepClock, _number, rain_lattice, record_head, time_step
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
 #: where the deck template lives (this package) and the shared includes
@@ -69,12 +69,9 @@ def chute_parameters(scene: dict, rung_name: str, case: dict | None = None) -> t
     h_b = float(proto["base_height"])
     n_particles = int(round(proto["phi_fill"] * Lx * Ly * (H + h_b) / v_particle))
     # the raining gas: a lattice of cell ~ (v/fill_packing)^(1/3), never narrower than 1.02 d
-    a = max((v_particle / proto["fill_packing"]) ** (1.0 / 3.0), 1.02 * d)
-    nx, ny = max(1, int(Lx // a)), max(1, int(Ly // a))
-    a_x, a_y, a_z = Lx / nx, Ly / ny, a
+    a_z, a_x, a_y, n_layers = rain_lattice(n_particles, v_particle, proto["fill_packing"], d, Lx, Ly)
     if min(a_x, a_y) < d:
         raise PreflightError(f"chute Lx = {Lx:g}, Ly = {Ly:g} too small for one lattice cell of {d:g} d")
-    n_layers = math.ceil(n_particles / (nx * ny))
     fill_height = 0.6 + n_layers * a_z + 1.0
 
     # fastest expected motion: free fall from the top of the gas, three times over
@@ -82,13 +79,8 @@ def chute_parameters(scene: dict, rung_name: str, case: dict | None = None) -> t
     skin = scene["contact"]["neighbor_skin"]
     neigh = neighbor_settings([d], skin, dt, v_max)
 
-    def steps(t: float) -> int:
-        return max(1, int(round(t / dt)))
-
-    n_thermo = steps(rung["thermo_interval"])
-
-    def thermo_multiple(t: float) -> int:
-        return n_thermo * max(1, int(round(t / dt / n_thermo)))
+    clock = StepClock(dt, rung["thermo_interval"])
+    steps, thermo_multiple, n_thermo = clock.steps, clock.thermo_multiple, clock.n_thermo
 
     t_fall = math.sqrt(2.0 * fill_height)  # free-fall time of the top of the gas
     params = [

@@ -21,7 +21,7 @@ import math
 
 from granflow.config import check_rung
 from granflow.contact import ContactModel, contact_model_for_time
-from granflow.deck import Param, _number, record_head, shared_si_params, time_step
+from granflow.deck import Param, StepClock, _number, record_head, shared_si_params, time_step
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
 #: gravitational acceleration, m/s^2
@@ -198,8 +198,7 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
     skin = scene["contact"]["neighbor_skin"] * d_ref
     neigh = neighbor_settings([s["d_lo"] for s in sp] + [s["d_hi"] for s in sp], skin, dt, v_max)
 
-    def steps(t: float) -> int:
-        return max(1, int(round(t / dt)))
+    steps = StepClock(dt).steps
 
     nfreq = plan["nfreq"]
     # segments are whole numbers of feed periods, so the pour keeps its cadence across restarts

@@ -5,7 +5,7 @@ import math
 from pathlib import Path
 
 import granflow.scenes.heap.figures as figures
-from granflow.config import ConfigError
+from granflow.config import ConfigError, require
 from granflow.preflight import PreflightError
 from granflow.registry import FigureSpec, Knob, Scene, SweepAxis
 
@@ -13,11 +13,6 @@ from .parameters import feed_plan, heap_parameters
 
 #: analysis tables of a case, in the order the figures read them
 TABLES = ("per_x", "profile", "collapse", "surface", "alpha_t", "rise_by_x", "phi_columns", "deposit")
-
-
-def _check(cond: bool, msg: str) -> None:
-    if not cond:
-        raise ConfigError(msg)
 
 
 class HeapScene(Scene):
@@ -51,24 +46,24 @@ class HeapScene(Scene):
     def check(self, scene: dict, source: str) -> None:
         for name, mix in scene["particles"]["mixtures"].items():
             d, f = mix["diameters"], mix["volume_fractions"]
-            _check(len(d) == len(f), f"{source}: particles.mixtures.{name}.volume_fractions has {len(f)} entries, "
+            require(len(d) == len(f), f"{source}: particles.mixtures.{name}.volume_fractions has {len(f)} entries, "
                                      f"diameters has {len(d)}: allowed only equal lengths")
-            _check(math.isclose(sum(f), 1.0, abs_tol=1e-6),
+            require(math.isclose(sum(f), 1.0, abs_tol=1e-6),
                    f"{source}: particles.mixtures.{name}.volume_fractions sum to {sum(f):g}: allowed sum = 1")
-            _check(list(d) == sorted(d), f"{source}: particles.mixtures.{name}.diameters = {d}: "
+            require(list(d) == sorted(d), f"{source}: particles.mixtures.{name}.diameters = {d}: "
                                          f"allowed only increasing (species 1 is the small one)")
         mix = scene["case"]["mixture"]
-        _check(mix in scene["particles"]["mixtures"],
+        require(mix in scene["particles"]["mixtures"],
                f"{source}: case.mixture = {mix!r} is not allowed: allowed one of "
                f"{', '.join(map(repr, scene['particles']['mixtures']))}")
         for name, r in scene["rungs"].items():
-            _check(r["feed_width"] < r["W"], f"{source}: rungs.{name}.feed_width = {r['feed_width']}: "
+            require(r["feed_width"] < r["W"], f"{source}: rungs.{name}.feed_width = {r['feed_width']}: "
                                              f"allowed < W = {r['W']}")
 
     def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
         """A known mixture, and a feed rate the feed zone can deliver."""
         mix, rate = case["mixture"], case["feed_rate"]
-        _check(mix in scene["particles"]["mixtures"],
+        require(mix in scene["particles"]["mixtures"],
                f"{source}: scenes.heap.sweep.mixture = {mix!r} is not allowed: allowed one of "
                f"{', '.join(map(repr, scene['particles']['mixtures']))}")
         try:

@@ -20,7 +20,7 @@ import numpy as np
 
 from granflow.config import check_rung
 from granflow.contact import Contact, ContactModel, _model, contact_time, damping_for_restitution
-from granflow.deck import Param, _number, record_head, shared_si_params
+from granflow.deck import Param, StepClock, _number, record_head, shared_si_params
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
 
@@ -202,13 +202,8 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
     neigh = neighbor_settings([s["diameter"] for s in sp], skin, dt, v_max)
     W_est = beverloo_estimate(scene, R)
 
-    def steps(t: float) -> int:
-        return max(1, int(round(t / dt)))
-
-    n_thermo = steps(rung["thermo_interval"])
-
-    def thermo_multiple(t: float) -> int:
-        return n_thermo * max(1, int(round(t / dt / n_thermo)))
+    clock = StepClock(dt, rung["thermo_interval"])
+    steps, thermo_multiple, n_thermo = clock.steps, clock.thermo_multiple, clock.n_thermo
 
     n_segment = thermo_multiple(rung["t_segment"])
     n_dump = steps(rung["dump_interval"])

@@ -8,18 +8,13 @@ import numpy as np
 import pandas as pd
 
 import granflow.scenes.silo.figures as figures
-from granflow.config import ConfigError
+from granflow.config import require
 from granflow.registry import FigureSpec, Knob, Scene, SweepAxis
 
 from .parameters import discharge_verdict, silo_parameters
 
 #: analysis tables of every case (plus kinetic_w<w> for each kernel width of cg.w_scan)
 TABLES = ("flow", "fields", "contact")
-
-
-def _check(cond: bool, msg: str) -> None:
-    if not cond:
-        raise ConfigError(msg)
 
 
 class SiloScene(Scene):
@@ -46,17 +41,17 @@ class SiloScene(Scene):
     # -- configuration ---------------------------------------------------------------
     def check(self, scene: dict, source: str) -> None:
         f = scene["particles"]["radius_fractions"]
-        _check(list(f) == sorted(f) and len(set(f)) == len(f),
+        require(list(f) == sorted(f) and len(set(f)) == len(f),
                f"{source}: particles.radius_fractions = {f}: allowed only strictly increasing (type 1 is the smallest)")
-        _check(set(scene["effects"]["walls"]) == {"side", "floor"},
+        require(set(scene["effects"]["walls"]) == {"side", "floor"},
                f"{source}: effects.walls = {scene['effects']['walls']}: allowed [side, floor] (the silo needs both)")
-        _check(not scene["effects"]["reinsert"] or scene["effects"]["deletion"],
+        require(not scene["effects"]["reinsert"] or scene["effects"]["deletion"],
                f"{source}: effects.reinsert = true needs effects.deletion = true: allowed reinsert only with deletion")
 
     def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
         """The orifice must fit the rung's silo."""
         R_c, R = scene["rungs"][rung]["R_c"], case["R"]
-        _check(R <= R_c - 2, f"{source}: scenes.silo.sweep.R = {R} (in r_b) does not fit the {rung} silo of "
+        require(R <= R_c - 2, f"{source}: scenes.silo.sweep.R = {R} (in r_b) does not fit the {rung} silo of "
                              f"R_c = {R_c} r_b: allowed 1 <= R <= R_c - 2 = {R_c - 2}")
 
     # -- decks and runs --------------------------------------------------------------

@@ -98,3 +98,20 @@ def test_flow_verdicts():
     assert SCENE.flow_verdict(_steady("no_steady_state", 2.0, 0.05), th, record).status == "accelerating"
     assert SCENE.flow_verdict(_steady("no_steady_state", 2.0, -0.05), th, record).status == "no_steady_state"
     assert SCENE.flow_verdict(_steady("steady", 2.0, 0.0), th, record).status == "steady"
+
+
+def test_table_brackets_the_flowing_range():
+    """The sweep's statuses bracket the flowing range on every row (NaN where a regime is missing)."""
+    import math
+
+    from granflow.scenes.chute import SCENE
+
+    rows = [{"theta": t, "status": s} for t, s in ((30, "accelerating"), (18, "arrested"), (22, "steady"),
+                                                    (25, "steady"), (20, "arrested"))]
+    table = SCENE.table(rows)
+    assert list(table["theta"]) == [18, 20, 22, 25, 30]
+    row = table.iloc[0]
+    assert (row["theta_arrested_max"], row["theta_steady_min"], row["theta_steady_max"],
+            row["theta_accelerating_min"]) == (20, 22, 25, 30)
+    only_steady = SCENE.table([{"theta": 24, "status": "steady"}]).iloc[0]
+    assert math.isnan(only_steady["theta_arrested_max"]) and only_steady["theta_steady_min"] == 24

@@ -50,7 +50,9 @@ class ChuteScene(Scene):
             "range (about 20-26 degrees for h of 20-40 d; thinner beds stop at higher angles)."),
     }
     table_caption = ("One row per angle: status, bulk stress ratio against tan(theta), weight-check residual, "
-                     "Bagnold fit and bulk packing; the provenance column names the rung and size.")
+                     "Bagnold fit and bulk packing; the provenance column names the rung and size. The columns "
+                     "theta_arrested_max, theta_steady_min/max and theta_accelerating_min give the flowing range "
+                     "the sweep brackets (paper: steady between about 20 and 26 degrees at h ~ 20-40 d).")
     table_sort = ("theta",)
     # a bed that stopped will not start again: end the flow stage at once
     stop_statuses = ("arrested",)
@@ -122,6 +124,29 @@ class ChuteScene(Scene):
     # -- analysis -----------------------------------------------------------------------
     def analyse(self, case_dir: Path):
         return analysis.analyse_case(case_dir)
+
+    def table(self, rows):
+        """One row per angle, and on every row the flowing range the sweep brackets.
+
+        ``theta_arrested_max`` is the largest angle that stopped, ``theta_steady_min``
+        and ``theta_steady_max`` the extremes of the steady ones, ``theta_accelerating_min``
+        the smallest that kept speeding up (NaN where the sweep has none); the paper's
+        steady range for h ~ 20-40 d is about 20-26 degrees.
+        """
+        table = pd.DataFrame(rows)
+        if table.empty:
+            return table
+        table = table.sort_values("theta")
+
+        def extreme(status, how):
+            values = table.loc[table["status"] == status, "theta"]
+            return float(how(values)) if len(values) else float("nan")
+
+        table["theta_arrested_max"] = extreme("arrested", max)
+        table["theta_steady_min"] = extreme("steady", min)
+        table["theta_steady_max"] = extreme("steady", max)
+        table["theta_accelerating_min"] = extreme("accelerating", min)
+        return table
 
     def figure_cases(self, cases):
         out = []

@@ -10,7 +10,7 @@ from granflow.config import ConfigError, load_scene
 from granflow.deck import render_case
 from granflow.preflight import PreflightError
 from granflow.scenes.chute import SCENE
-from granflow.scenes.chute.deck import STAGES, chute_parameters
+from granflow.scenes.chute.parameters import STAGES, chute_parameters
 
 RUNGS = ("smoke", "demo", "study", "paper")
 

@@ -20,7 +20,7 @@ from granflow.config import ConfigError
 from granflow.registry import FigureSpec, Knob, Scene, SweepAxis, finite
 
 from . import analysis, figures
-from .deck import chute_parameters
+from .parameters import chute_parameters
 
 
 class ChuteScene(Scene):

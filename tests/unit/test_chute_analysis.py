@@ -91,11 +91,15 @@ def _steady(status, mean, slope):
 
 
 def test_flow_verdicts():
-    record = {"protocol": {"arrest_speed": 1e-3}}
-    th = pd.DataFrame()
+    record = {"protocol": {"arrest_speed": 0.01, "accelerating_drift": 0.25, "steady_window": 50.0}}
+    th = pd.DataFrame({"Time": np.linspace(0.0, 100.0, 101)})
     assert SCENE.flow_verdict(_steady("jammed", 1e-5, 0.0), th, record).status == "arrested"
-    assert SCENE.flow_verdict(_steady("no_steady_state", 5e-4, 1e-6), th, record).status == "arrested"
+    # a creeping bed (mean speed below arrest_speed) is arrested
+    assert SCENE.flow_verdict(_steady("no_steady_state", 5e-3, 1e-6), th, record).status == "arrested"
+    # a rise of 0.05 x 50 = 2.5 on a mean of 2 (125 % per window) is an acceleration
     assert SCENE.flow_verdict(_steady("no_steady_state", 2.0, 0.05), th, record).status == "accelerating"
+    # a rise of 0.004 x 50 = 0.2 on a mean of 2 (10 %) is the noise of a small bed: no verdict beyond the generic
+    assert SCENE.flow_verdict(_steady("no_steady_state", 2.0, 0.004), th, record).status == "no_steady_state"
     assert SCENE.flow_verdict(_steady("no_steady_state", 2.0, -0.05), th, record).status == "no_steady_state"
     assert SCENE.flow_verdict(_steady("steady", 2.0, 0.0), th, record).status == "steady"
 

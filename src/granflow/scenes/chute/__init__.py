@@ -108,17 +108,23 @@ class ChuteScene(Scene):
         """``arrested`` for a bed that stopped, ``accelerating`` for one still speeding up.
 
         Arrested: the generic ``jammed``, or a mean :math:`u_{cm}` below
-        ``protocol.arrest_speed`` over the last window. Accelerating: no steady
-        state and a positive slope of :math:`u_{cm}(t)` over the last window.
+        ``protocol.arrest_speed`` over the last window (a creeping bed). Accelerating:
+        no steady state, and :math:`u_{cm}` rose over the last window by more than
+        ``protocol.accelerating_drift`` of its mean (a trend, not the fluctuations of a
+        small bed, which stay ``no_steady_state``).
         """
         proto = record["protocol"]
         if steady.status == "jammed" or (np.isfinite(steady.mean) and abs(steady.mean) < proto["arrest_speed"]
                                          and steady.status != "steady"):
             return dataclasses.replace(steady, status="arrested",
                                        reason=f"the bed stopped: {steady.reason}")
-        if steady.status == "no_steady_state" and np.isfinite(steady.slope) and steady.slope > 0:
+        window = min(proto["steady_window"], float(thermo["Time"].iloc[-1] - thermo["Time"].iloc[0])) \
+            if len(thermo) > 1 else float("nan")
+        drift = steady.slope * window / abs(steady.mean) if np.isfinite(steady.mean) and steady.mean else float("nan")
+        if steady.status == "no_steady_state" and np.isfinite(drift) and drift > proto["accelerating_drift"]:
             return dataclasses.replace(steady, status="accelerating",
-                                       reason=f"u_cm still rising ({steady.slope:.3g} per time unit): {steady.reason}")
+                                       reason=f"u_cm still rising ({steady.slope:.3g} per time unit, "
+                                              f"{drift:.0%} over the last window): {steady.reason}")
         return steady
 
     # -- analysis -----------------------------------------------------------------------

@@ -109,22 +109,31 @@ class ChuteScene(Scene):
 
         Arrested: the generic ``jammed``, or a mean :math:`u_{cm}` below
         ``protocol.arrest_speed`` over the last window (a creeping bed). Accelerating:
-        no steady state, and :math:`u_{cm}` rose over the last window by more than
-        ``protocol.accelerating_drift`` of its mean (a trend, not the fluctuations of a
-        small bed, which stay ``no_steady_state``).
+        no steady state because :math:`u_{cm}` keeps rising: over the last window
+        (``protocol.steady_window``) the straight-line fit rises by more than
+        ``protocol.steady_rel_tol`` of the mean, and the scatter about that line stays
+        below ``protocol.steady_fluct_tol`` (a trend, not the noise of a small bed,
+        which stays ``no_steady_state``).
         """
         proto = record["protocol"]
         if steady.status == "jammed" or (np.isfinite(steady.mean) and abs(steady.mean) < proto["arrest_speed"]
                                          and steady.status != "steady"):
             return dataclasses.replace(steady, status="arrested",
                                        reason=f"the bed stopped: {steady.reason}")
-        window = min(proto["steady_window"], float(thermo["Time"].iloc[-1] - thermo["Time"].iloc[0])) \
-            if len(thermo) > 1 else float("nan")
-        drift = steady.slope * window / abs(steady.mean) if np.isfinite(steady.mean) and steady.mean else float("nan")
-        if steady.status == "no_steady_state" and np.isfinite(drift) and drift > proto["accelerating_drift"]:
+        if steady.status != "no_steady_state" or len(thermo) < 3:
+            return steady
+        t, u = thermo["Time"].to_numpy(float), thermo["v_ucm"].to_numpy(float)
+        last = t >= t[-1] - proto["steady_window"]
+        t, u = t[last], u[last]
+        if len(t) < 3 or not np.mean(u) > 0:
+            return steady
+        slope, intercept = np.polyfit(t, u, 1)
+        rise = slope * (t[-1] - t[0]) / np.mean(u)
+        scatter = np.std(u - (slope * t + intercept), ddof=2) / np.mean(u)
+        if rise > proto["steady_rel_tol"] and scatter < proto["steady_fluct_tol"]:
             return dataclasses.replace(steady, status="accelerating",
-                                       reason=f"u_cm still rising ({steady.slope:.3g} per time unit, "
-                                              f"{drift:.0%} over the last window): {steady.reason}")
+                                       reason=f"u_cm still rising: +{rise:.1%} of its mean over the last "
+                                              f"{t[-1] - t[0]:.4g} time units, scatter about the trend {scatter:.1%}")
         return steady
 
     # -- analysis -----------------------------------------------------------------------

@@ -70,3 +70,40 @@ def run_smoke():
         return status
 
     return run
+
+
+@pytest.fixture
+def skiprun(lmp):
+    """Set up each stage deck of a rendered case in LAMMPS with ``-skiprun`` (the runs are skipped),
+    passing the variables the runner passes; assert that no stage prints an ERROR.
+
+    ``extra`` adds variables per stage; ``edit(stage, text)`` may change a deck first (its copy
+    ``<stage>_skiprun.lmp`` is what runs). Returns LAMMPS's output per stage.
+    """
+    import subprocess
+
+    variables = {
+        "init": ["-var", "restart_out", "init.restart"],
+        "flow": ["-var", "restart_in", "init.restart", "-var", "restart_out", "flow.restart"],
+        "average": ["-var", "restart_in", "init.restart", "-var", "restart_out", "avg.restart",
+                    "-var", "dump_file", "dump.bin", "-var", "contacts_file", "contacts.dump"],
+    }
+
+    def run(case_dir: Path, stages, extra: dict | None = None, edit=None) -> dict:
+        run_dir = case_dir / "run"
+        run_dir.mkdir(exist_ok=True)
+        out = {}
+        for stage in stages:
+            text = (case_dir / f"{stage}.lmp").read_text()
+            deck = case_dir / f"{stage}_skiprun.lmp"
+            deck.write_text(edit(stage, text) if edit else text)
+            args = variables[stage] + list((extra or {}).get(stage, ()))
+            proc = subprocess.run([lmp, "-skiprun", "-in", str(deck), "-log", "none", "-nocite", *args],
+                                  cwd=run_dir, capture_output=True, text=True, timeout=300)
+            errors = [line for line in proc.stdout.splitlines() if line.startswith("ERROR")]
+            assert proc.returncode == 0 and not errors, f"{case_dir.name}/{stage}: {errors or proc.stdout[-2000:]}"
+            out[stage] = proc.stdout
+        assert (run_dir / "init.restart").exists()
+        return out
+
+    return run

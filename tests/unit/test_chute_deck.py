@@ -2,7 +2,6 @@
 import copy
 import math
 import re
-import subprocess
 
 import pytest
 
@@ -98,24 +97,10 @@ def test_contact_dump_only_when_asked(chute, tmp_path):
 
 
 @pytest.mark.parametrize("rung", RUNGS)
-def test_every_rung_passes_skiprun(chute, tmp_path, lmp, rung):
+def test_every_rung_passes_skiprun(chute, tmp_path, skiprun, rung):
     """Each stage's deck parses and sets up in LAMMPS (-skiprun skips the runs)."""
     render_case(chute, rung, tmp_path)
-    run = tmp_path / "run"
-    run.mkdir()
-    variables = {
-        "init": ["-var", "restart_out", "init.restart"],
-        "flow": ["-var", "restart_in", "init.restart", "-var", "restart_out", "flow.restart"],
-        "average": ["-var", "restart_in", "init.restart", "-var", "restart_out", "avg.restart",
-                    "-var", "dump_file", "dump.bin", "-var", "contacts_file", "contacts.dump"],
-    }
-    for stage in STAGES:
-        proc = subprocess.run([lmp, "-skiprun", "-in", str(tmp_path / f"{stage}.lmp"), "-log", "none",
-                               "-nocite", *variables[stage]], cwd=run, capture_output=True, text=True,
-                              timeout=300)
-        errors = [l for l in proc.stdout.splitlines() if l.startswith("ERROR")]
-        assert proc.returncode == 0 and not errors, f"{rung}/{stage}: {errors or proc.stdout[-2000:]}"
-    assert (run / "init.restart").exists()
+    skiprun(tmp_path, STAGES)
 
 
 def test_cost_study_takes_the_chute(root, chute):

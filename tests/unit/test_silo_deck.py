@@ -1,7 +1,6 @@
 """Silo decks: eq. 10 stiffness, the gas and the rim, refusals, effects -> exactly those commands, skiprun."""
 import copy
 import math
-import subprocess
 
 import numpy as np
 import pandas as pd
@@ -101,22 +100,14 @@ def test_effects_off_means_commands_absent(silo_scene, tmp_path, effect, absent)
 
 @pytest.mark.lammps
 @pytest.mark.parametrize("rung", ["smoke", "demo", "study", "paper"])
-def test_every_rung_passes_skiprun(silo_scene, tmp_path, lmp, rung):
+def test_every_rung_passes_skiprun(silo_scene, tmp_path, skiprun, rung):
     """Both stages parse and set up in LAMMPS with the gas, the rim and the open orifice.
 
     (The re-insertion deck needs a real ``run 0`` before ``create_atoms``, which
     -skiprun skips; it runs in tests/integration/test_silo_dag.py instead.)
     """
     record = render_case(silo_scene, rung, tmp_path, SMOKE_CASE if rung == "smoke" else None)
-    run = tmp_path / "run"
-    run.mkdir()
-    stages = {"init": ["-var", "restart_out", "init.restart"],
-              "average": ["-var", "restart_in", "init.restart", "-var", "restart_out", "avg.restart",
-                          "-var", "dump_file", "dump.bin", "-var", "contacts_file", "contacts.dump"]}
-    for stage, extra in stages.items():
-        proc = subprocess.run([lmp, "-in", str(tmp_path / f"{stage}.lmp"), "-skiprun", "-log", "none", *extra],
-                              cwd=run, capture_output=True, text=True, timeout=300)
-        assert proc.returncode == 0 and "ERROR" not in proc.stdout, proc.stdout[-2000:]
+    skiprun(tmp_path, ("init", "average"))
     n_rim = record["rim"]["n"]
     assert f"{record['n_particles'] + n_rim} atoms" in (tmp_path / "atoms.data").read_text()
 

@@ -107,3 +107,16 @@ def skiprun(lmp):
         return out
 
     return run
+
+
+@pytest.fixture(scope="session")
+def scenes_off():
+    """YAML lines that disable every registered scene but ``keep``: a test campaign passed with
+    ``--configfile`` merges into config/config.yaml, so each scene it does not run must be off
+    (including scenes added after the test was written). ``indent`` is that of the scene keys."""
+    from granflow import registry
+
+    def lines(keep=(), indent: int = 2) -> str:
+        return "".join(f"{' ' * indent}{name}: {{enabled: false}}\n" for name in registry.names() if name not in keep)
+
+    return lines

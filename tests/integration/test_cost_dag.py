@@ -14,7 +14,7 @@ BIN = Path(sys.executable).parent
 
 
 @pytest.fixture(scope="module")
-def cost_campaign(tmp_path_factory, root):
+def cost_campaign(tmp_path_factory, root, scenes_off):
     work = tmp_path_factory.mktemp("cost")
     results = work / "results"
     cfg = work / "config.yaml"
@@ -23,14 +23,11 @@ def cost_campaign(tmp_path_factory, root):
         "rung: smoke\n"
         f"results_dir: {results}\n"
         "scenes:\n"
-        "  channel: {enabled: false}\n"
-        "  heap: {enabled: false}\n"
-        "  silo: {enabled: false}\n"
+        + scenes_off() +
         "cost:\n"
         "  n_blocks: 2\n"
         "  scenes:\n"
-        "    heap: {enabled: false}\n"
-        "    silo: {enabled: false}\n"
+        + scenes_off(keep=("channel",), indent=4) +
         "    channel:\n"
         "      base_rung: smoke\n"
         "      set:\n"

@@ -16,7 +16,7 @@ MIXTURES = ("mono1.5", "bi1.5-2.25")
 
 
 @pytest.fixture(scope="module")
-def heap_campaign(tmp_path_factory, root):
+def heap_campaign(tmp_path_factory, root, scenes_off):
     work = tmp_path_factory.mktemp("heap")
     results = work / "results"
     cfg = work / "config.yaml"
@@ -24,10 +24,7 @@ def heap_campaign(tmp_path_factory, root):
         "rung: smoke\n"
         f"results_dir: {results}\n"
         "scenes:\n"
-        "  silo:\n"
-        "    enabled: false\n"
-        "  channel:\n"
-        "    enabled: false\n"
+        + scenes_off(keep=("heap",)) +
         "  heap:\n"
         "    enabled: true\n"
         f"    scene_file: {root / 'config' / 'scenes' / 'heap.yaml'}\n"

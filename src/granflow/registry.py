@@ -189,6 +189,14 @@ class Scene:
         """
         raise NotImplementedError(f"scene {self.name!r} has no headline observables")
 
+    def averaged_window(self, measure, case_dir: Path, record: dict, t_average: float,
+                        block: tuple[float, float] | None = None) -> tuple[dict, tuple[float, float]]:
+        """:meth:`observables` for scenes that measure over a time window of the averaging stage:
+        ``measure(case_dir, record, t_window=...)`` over ``block`` or the first ``t_average``,
+        NaN for what it does not return."""
+        window = block or (0.0, t_average)
+        return dict(self.nan_observables(), **measure(case_dir, record, t_window=window)), window
+
     def paper_reference(self, scene: dict) -> dict:
         """Particle count and simulated time of the paper rung (for the cost extrapolation)."""
         raise NotImplementedError(f"scene {self.name!r} has no paper reference")

@@ -141,8 +141,7 @@ class ChannelScene(Scene):
     def observables(self, case_dir, record, t_average, block=None):
         from .pipeline import channel_observables
 
-        window = block or (0.0, t_average)
-        return dict(self.nan_observables(), **channel_observables(case_dir, record, t_window=window)), window
+        return self.averaged_window(channel_observables, case_dir, record, t_average, block)
 
     def paper_reference(self, scene: dict) -> dict:
         _, context = self.parameters(scene, "paper")

@@ -21,16 +21,9 @@ class HeapScene(Scene):
     paper = "heap_fan2013.md"
     # directories carry the feed rate in g/s: mdot~33 for 0.033 kg/s
     sweep = (SweepAxis("mixture", "mix", name=True), SweepAxis("feed_rate", "mdot", scale=1000.0))
-    figures = {name: FigureSpec(draw, paper) for name, draw, paper in (
-        ("fig03_segregation", figures.fig03_segregation, "3(c)"),
-        ("fig04_surface", figures.fig04_surface, "4"),
-        ("fig05_velocity", figures.fig05_velocity, "5"),
-        ("fig06_streamwise", figures.fig06_streamwise, "6"),
-        ("fig07_collapse", figures.fig07_collapse, "7"),
-        ("fig08_normal", figures.fig08_normal, "8"),
-        ("fig09_all_cases", figures.fig09_all_cases, "9"),
-        ("fig10_scaled", figures.fig10_scaled, "10"),
-        ("fig11_qstar", figures.fig11_qstar, "11"))}
+    # the figures of heap/figures.py (HEAP_FIGURES), with the paper figure each reproduces
+    figures = {name: FigureSpec(draw, name.split("_")[0][3:].lstrip("0"))
+               for name, draw in figures.HEAP_FIGURES.items()}
     table_sort = ("mixture", "feed_rate")
     headline = (("alpha", "α (deg)"), ("delta_over_d", "δ/d̄"), ("tail_exponent", "tail exponent"))
     knobs = {
@@ -141,8 +134,7 @@ class HeapScene(Scene):
     def observables(self, case_dir, record, t_average, block=None):
         from .pipeline import heap_observables
 
-        window = block or (0.0, t_average)
-        return dict(self.nan_observables(), **heap_observables(case_dir, record, t_window=window)), window
+        return self.averaged_window(heap_observables, case_dir, record, t_average, block)
 
     def paper_reference(self, scene: dict) -> dict:
         _, context = self.parameters(scene, "paper")

@@ -22,11 +22,9 @@ class SiloScene(Scene):
     summary = "3D flat-bottomed cylindrical silo discharging through a circular orifice (Rubio-Largo et al. 2016)"
     paper = "silo_rubiolargo2016.md"
     sweep = (SweepAxis("R", "R"),)
-    figures = {name: FigureSpec(getattr(figures, name), paper) for name, paper in (
-        ("fig02_flow_rate", "2"), ("fig03_fields", "3"), ("fig04_phi_orifice", "4"), ("fig05_vz_orifice", "5"),
-        ("fig06_contact_pressure", "6"), ("fig07_kinetic_pressure_maps", "7"), ("fig08_kinetic_axis", "8"),
-        ("fig09_kinetic_w", "9"), ("fig10_cumulative", "10"), ("fig11_partial", "11"),
-        ("fig12_partial_over_phi", "12"), ("fig13_beverloo", "Beverloo"))}
+    # the figures of silo/figures (SILO_FIGURES), with the paper figure each reproduces
+    figures = {name: FigureSpec(draw, "Beverloo" if name == "fig13_beverloo" else name[3:5].lstrip("0"))
+               for name, draw in figures.SILO_FIGURES.items()}
     table_sort = ("R",)
     headline = (("W_f", "steady W_f (kg/s)"), ("profile_deviation", "orifice profile vs √(1−(r/R)²)"),
                 ("h_c_over_R", "h_c/R"))

@@ -3,12 +3,90 @@
 A reader (:mod:`postproc.dump`) yields :class:`DumpFrame` objects holding the raw
 named columns of a LAMMPS dump; :meth:`ParticleFrame.from_dump` turns them into
 named physical arrays that kernels and fields consume.
+
+The reader exceptions live here too (and are re-exported by :mod:`postproc.dump`),
+because :meth:`ParticleFrame.from_dump` raises :class:`MissingColumnsError`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Iterable, Sequence
 
 import numpy as np
+
+__all__ = ["DumpError", "MissingColumnsError", "DumpFrame", "ParticleFrame", "missing_particle_columns"]
+
+
+class DumpError(Exception):
+    """A dump file is truncated, corrupted, in an unsupported format, or lacks columns.
+
+    The message names the file, the 0-based frame index, the byte offset and
+    what was wrong. The same facts are attributes, each ``None`` when unknown
+    (``DumpError("message")`` alone is valid).
+
+    Parameters
+    ----------
+    message : str
+    path : str, optional
+        The dump file.
+    frame : int, optional
+        0-based index of the bad or incomplete frame.
+    byte : int, optional
+        Byte offset at which that frame starts (for gzipped text dumps, in the
+        decompressed stream).
+    truncated : bool, optional
+        ``True`` when the file ends inside the frame, ``False`` when the frame
+        is corrupted or unusable.
+    line : int, optional
+        For text dumps, the 1-based line at which the problem was found.
+
+    Attributes
+    ----------
+    path, frame, byte, truncated, line
+        As given.
+    """
+
+    def __init__(self, message: str = "", *, path: str | None = None, frame: int | None = None,
+                 byte: int | None = None, truncated: bool | None = None, line: int | None = None) -> None:
+        super().__init__(message)
+        self.path = path
+        self.frame = frame
+        self.byte = byte
+        self.truncated = truncated
+        self.line = line
+
+
+class MissingColumnsError(DumpError, KeyError):
+    """A dump frame lacks the columns a reader or :meth:`ParticleFrame.from_dump` needs.
+
+    Subclasses both :class:`DumpError` and :class:`KeyError` (code catching
+    either keeps working); unlike a :class:`KeyError` its ``str()`` is the plain
+    message, not its ``repr``.
+
+    Parameters
+    ----------
+    message : str
+    missing : sequence of str, optional
+        What is lacking (column names or alternatives such as ``"radius or diameter"``).
+    available : sequence of str, optional
+        The columns the frame has.
+    **where
+        ``path``, ``frame``, ``byte``, ``line``, as for :class:`DumpError`.
+
+    Attributes
+    ----------
+    missing, available : list of str
+    """
+
+    def __init__(self, message: str = "", *, missing: Sequence[str] = (), available: Sequence[str] = (),
+                 **where) -> None:
+        where.setdefault("truncated", False)
+        super().__init__(message, **where)
+        self.missing = list(missing)
+        self.available = list(available)
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
 
 
 @dataclass
@@ -26,16 +104,75 @@ class DumpFrame:
     columns : dict of str -> ndarray, shape (N,)
         Per-atom columns by their dump names (``id``, ``x``, ``c_stress[1]`` ...),
         sorted by atom id.
+    time : float or None
+        Simulation time, when the dump has it (``dump_modify time yes``).
+    units : str or None
+        LAMMPS unit style (``"si"``, ``"lj"`` ...), when the dump has it
+        (``dump_modify units yes``; LAMMPS writes it in the first frame only, the
+        readers carry it to the later ones).
     """
 
     timestep: int
     box: np.ndarray
     boundary: str
     columns: dict[str, np.ndarray] = field(default_factory=dict)
+    time: float | None = None
+    units: str | None = None
 
     @property
     def natoms(self) -> int:
         return len(next(iter(self.columns.values()))) if self.columns else 0
+
+
+#: Position column sets :meth:`ParticleFrame.from_dump` accepts, in order of preference;
+#: the scaled ones (``s``) are converted with the box.
+_POSITION_SETS = (("x", "y", "z"), ("xu", "yu", "zu"), ("xs", "ys", "zs"), ("xsu", "ysu", "zsu"))
+_VELOCITY = ("vx", "vy", "vz")
+_NEEDED = "x y z (or xu yu zu, xs ys zs), vx vy vz, radius or diameter, and mass or a density"
+
+
+def missing_particle_columns(names: Iterable[str], density: float | None = None) -> list[str]:
+    """What a dump with these columns lacks for :meth:`ParticleFrame.from_dump`.
+
+    Lets a caller refuse a dump before reading its frames (e.g. from the column
+    names of :func:`postproc.dump.peek_dump`).
+
+    Parameters
+    ----------
+    names : iterable of str
+        Column names of the dump.
+    density : float, optional
+        The particle density that :meth:`ParticleFrame.from_dump` would be given;
+        with it the ``mass`` column is not needed.
+
+    Returns
+    -------
+    list of str
+        Empty when the columns suffice. Otherwise one entry per lacking item:
+        column names (``"vz"``, or ``"z"`` when only part of a position set is
+        present) or alternatives (``"x y z (or xu yu zu, xs ys zs)"``,
+        ``"radius or diameter"``, ``"mass or a density"``).
+    """
+    have = set(names)
+    lacking: list[str] = []
+    if not any(have.issuperset(s) for s in _POSITION_SETS):
+        partial = max(_POSITION_SETS, key=lambda s: sum(c in have for c in s))
+        if any(c in have for c in partial):
+            lacking.extend(c for c in partial if c not in have)
+        else:
+            lacking.append("x y z (or xu yu zu, xs ys zs)")
+    lacking.extend(c for c in _VELOCITY if c not in have)
+    if "radius" not in have and "diameter" not in have:
+        lacking.append("radius or diameter")
+    if "mass" not in have and density is None:
+        lacking.append("mass or a density")
+    return lacking
+
+
+def _missing_message(step: int, lacking: Sequence[str], names: Sequence[str]) -> str:
+    hint = " (pass density= to ParticleFrame.from_dump, or dump the mass column)" if "mass or a density" in lacking else ""
+    return (f"dump frame at step {step} lacks {', '.join(lacking)}{hint}; ParticleFrame needs {_NEEDED}; "
+            f"the frame has columns {list(names)}")
 
 
 @dataclass
@@ -61,6 +198,11 @@ class ParticleFrame:
         LAMMPS atom ids, when the dump has an ``id`` column (the readers sort
         atoms by id); :meth:`postproc.contacts.ContactFrame.anchor` finds contact
         partners by them.
+    time : float or None
+        Simulation time, when the dump has it.
+    boundary : str or None
+        LAMMPS boundary string (``"p p f"``), used for minimum images
+        (:meth:`postproc.contacts.ContactFrame.with_branch`); ``None`` when unknown.
     """
 
     timestep: int
@@ -73,6 +215,8 @@ class ParticleFrame:
     contact_stress_volume: np.ndarray | None = None
     type: np.ndarray | None = None
     id: np.ndarray | None = None
+    time: float | None = None
+    boundary: str | None = None
 
     @property
     def moment_of_inertia(self) -> np.ndarray:
@@ -85,37 +229,76 @@ class ParticleFrame:
         return 4.0 / 3.0 * np.pi * self.radius**3
 
     @classmethod
-    def from_dump(cls, frame: DumpFrame, stress_compute: str = "stress") -> "ParticleFrame":
+    def from_dump(cls, frame: DumpFrame, stress_compute: str = "stress",
+                  density: float | None = None) -> "ParticleFrame":
         """Build from a :class:`DumpFrame`.
 
-        Required columns: ``x y z vx vy vz mass radius``. Optional: ``omegax omegay
-        omegaz``; ``c_<stress_compute>[1..6]`` from ``compute stress/atom NULL pair``;
-        ``type``; ``id`` (stored as int64).
+        Parameters
+        ----------
+        frame : DumpFrame
+        stress_compute : str, optional
+            ID of the ``compute stress/atom NULL pair`` whose ``c_<id>[1..6]``
+            columns give :attr:`contact_stress_volume`.
+        density : float, optional
+            Particle density, used for the mass :math:`\\rho \\tfrac43 \\pi r^3`
+            when the dump has no ``mass`` column (a ``mass`` column wins).
+
+        Returns
+        -------
+        ParticleFrame
+
+        Raises
+        ------
+        MissingColumnsError
+            (a :class:`KeyError`) if a required column is absent; the message
+            names the step, what is lacking, what is needed and the columns
+            present (see :func:`missing_particle_columns`).
+
+        Notes
+        -----
+        Positions from ``x y z``, else the unwrapped ``xu yu zu``, else the scaled
+        ``xs ys zs`` (or ``xsu ysu zsu``) converted with the box,
+        :math:`x = x_{lo} + s (x_{hi} - x_{lo})`; velocities ``vx vy vz``; the
+        radius from ``radius``, else ``diameter / 2``; the mass from ``mass``,
+        else from ``density``. Optional: ``omegax omegay omegaz``;
+        ``c_<stress_compute>[1..6]``; ``type``; ``id`` (stored as int64).
         """
         c = frame.columns
-        missing = [k for k in ("x", "y", "z", "vx", "vy", "vz", "mass", "radius") if k not in c]
-        if missing:
-            raise KeyError(f"dump frame at step {frame.timestep} lacks columns {missing}")
-        pos = np.column_stack([c["x"], c["y"], c["z"]])
+        lacking = missing_particle_columns(c, density)
+        if lacking:
+            raise MissingColumnsError(_missing_message(frame.timestep, lacking, list(c)),
+                                      missing=lacking, available=list(c))
+        box = np.asarray(frame.box, dtype=float)
+        names = next(s for s in _POSITION_SETS if all(k in c for k in s))
+        pos = np.column_stack([c[k] for k in names])
+        if names[0].startswith("xs"):
+            pos = box[:, 0] + pos * (box[:, 1] - box[:, 0])
         vel = np.column_stack([c["vx"], c["vy"], c["vz"]])
+        radius = np.asarray(c["radius"], dtype=float) if "radius" in c else 0.5 * np.asarray(c["diameter"], dtype=float)
+        if "mass" in c:
+            mass = np.asarray(c["mass"], dtype=float)
+        else:
+            mass = float(density) * (4.0 / 3.0 * np.pi) * radius**3
         omega = None
         if all(k in c for k in ("omegax", "omegay", "omegaz")):
             omega = np.column_stack([c["omegax"], c["omegay"], c["omegaz"]])
-        names = [f"c_{stress_compute}[{k}]" for k in range(1, 7)]
+        stress_names = [f"c_{stress_compute}[{k}]" for k in range(1, 7)]
         stress = None
-        if all(n in c for n in names):
+        if all(n in c for n in stress_names):
             # LAMMPS stress/atom is -(virial) in pressure*volume units; we store
             # the compressive-positive contact stress times volume.
-            stress = -np.column_stack([c[n] for n in names])
+            stress = -np.column_stack([c[n] for n in stress_names])
         return cls(
             timestep=frame.timestep,
-            box=np.asarray(frame.box, dtype=float),
+            box=box,
             position=pos,
             velocity=vel,
-            mass=np.asarray(c["mass"], dtype=float),
-            radius=np.asarray(c["radius"], dtype=float),
+            mass=mass,
+            radius=radius,
             omega=omega,
             contact_stress_volume=stress,
             type=c.get("type"),
             id=None if "id" not in c else np.rint(np.asarray(c["id"], dtype=float)).astype(np.int64),
+            time=getattr(frame, "time", None),
+            boundary=getattr(frame, "boundary", None),
         )

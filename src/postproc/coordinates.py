@@ -6,10 +6,21 @@ system maps a :class:`~postproc.frame.ParticleFrame` to the particles' positions
 in its space and measures volumes there; the dimensions it does not resolve are
 integrated over.
 
+=============================  ============  ============  =====================
+class                          ``kind``      ``names``     resolves
+=============================  ============  ============  =====================
+:class:`CartesianCoordinates`  cartesian     e.g. x z      any of x, y, z
+:class:`XCoordinates`          cartesian     one axis      one Cartesian axis
+:class:`RCoordinates`          r             r             distance from an axis
+:class:`RZCoordinates`         rz            r z           distance and height
+=============================  ============  ============  =====================
+
 Every coordinate system offers
 
 ``kind``
-    ``"x"`` or ``"rz"``, which kernels dispatch on;
+    ``"cartesian"``, ``"r"`` or ``"rz"``, which kernels dispatch on;
+``cartesian``
+    True for the Cartesian systems (lab-frame vector components);
 ``names``
     coordinate names, used as node columns of result tables;
 ``points(frame)``, ``map(positions)``
@@ -35,11 +46,124 @@ from .frame import ParticleFrame
 _AXES = ("x", "y", "z")
 
 
-class XCoordinates:
+def _box_lengths(box) -> np.ndarray:
+    box = np.asarray(box, dtype=float)
+    return box[:, 1] - box[:, 0]
+
+
+class CartesianCoordinates:
+    """Cartesian fields: resolve some of the axes x, y, z, integrate over the others.
+
+    ``axes`` is a non-empty ordered subset of ``"xyz"`` without repeats, e.g.
+    ``"x"`` (profiles across a channel), ``"z"`` (profiles in height), ``"xz"``
+    (maps in a vertical plane, averaged over :math:`y`) or ``"xyz"``. With
+    :math:`R` the resolved axes and :math:`U` the others, the volume of a
+    product cell :math:`\\prod_{a \\in R} [a_\\mathrm{lo}, a_\\mathrm{hi})` is
+
+    .. math::
+
+        V = \\prod_{a \\in R} (a_\\mathrm{hi} - a_\\mathrm{lo})\\; A, \\qquad
+        A = \\prod_{a \\in U} L_a ,
+
+    with :math:`L_a` the frame's box lengths (:meth:`transverse_area`;
+    :math:`A = 1` when all three axes are resolved). Vectors and tensors keep
+    their lab-frame components ``x y z``.
+
+    Parameters
+    ----------
+    axes : str
+        The resolved axes in order, e.g. ``"x"`` or ``"xz"``; their names are the
+        node columns of result tables, and points have one column per axis in
+        this order.
+    walls : optional
+        Wall positions bounding the resolved axes, e.g. ``(0, W)`` for one axis
+        (the extent that channel bins are built on,
+        :func:`postproc.kernels.channel_bin_edges`), or one increasing pair per
+        axis (or None) for several. Informative only: nothing is clipped to them.
+
+    Attributes
+    ----------
+    indices : tuple of int
+        Indices (0, 1, 2 for x, y, z) of the resolved axes, in order.
+    """
+
+    kind = "cartesian"
+    cartesian = True
+    components = _AXES
+
+    def __init__(self, axes: str = "x", walls=None):
+        if (not isinstance(axes, str) or not axes or len(set(axes)) != len(axes)
+                or any(a not in _AXES for a in axes)):
+            raise ValueError(f"axes {axes!r} must be a non-empty ordered subset of 'xyz' without repeats")
+        self.names = tuple(axes)
+        self.indices = tuple(_AXES.index(a) for a in axes)
+        self.walls = self._check_walls(walls)
+
+    def _check_walls(self, walls):
+        if walls is None:
+            return None
+        if len(self.indices) == 1 and np.ndim(walls) == 1:
+            return self._pair(walls)
+        if len(walls) != len(self.indices):
+            raise ValueError(f"walls {walls!r}: need one pair (or None) per axis of {''.join(self.names)!r}")
+        return tuple(None if w is None else self._pair(w) for w in walls)
+
+    @staticmethod
+    def _pair(walls) -> tuple[float, float]:
+        walls = (float(walls[0]), float(walls[1]))
+        if walls[1] <= walls[0]:
+            raise ValueError(f"walls {walls} must be increasing")
+        return walls
+
+    def points(self, frame: ParticleFrame) -> np.ndarray:
+        """Particle coordinates along the resolved axes, shape (N, d)."""
+        return self.map(frame.position)
+
+    def map(self, positions) -> np.ndarray:
+        """The resolved coordinates of positions ``(N, 3)``, shape (N, d)."""
+        pos = np.asarray(positions, dtype=float).reshape(-1, 3)
+        if len(self.indices) == 1:
+            return pos[:, self.indices[0] : self.indices[0] + 1]
+        return pos[:, list(self.indices)]
+
+    @staticmethod
+    def local_vectors(positions, vectors) -> np.ndarray:
+        """Cartesian components unchanged (the basis is the lab frame everywhere)."""
+        return np.asarray(vectors, dtype=float)
+
+    @staticmethod
+    def local_tensors(positions, tensors) -> np.ndarray:
+        """Cartesian components unchanged."""
+        return np.asarray(tensors, dtype=float)
+
+    def transverse_area(self, box) -> float:
+        """:math:`A = \\prod_{a \\notin R} L_a`, the box measure of the unresolved axes.
+
+        An area for one resolved axis (:math:`L_y L_z` for x), a length for two,
+        1.0 for three (then ``box`` may be None).
+        """
+        if len(self.indices) == 3:
+            return 1.0
+        lengths = _box_lengths(box)
+        return float(np.prod([lengths[k] for k in range(3) if k not in self.indices]))
+
+    def cell_volumes(self, edges: Sequence[np.ndarray], box) -> np.ndarray:
+        """Cell volumes :math:`\\prod_{a \\in R} \\Delta a \\; A`, shape (n_1, ..., n_d)."""
+        if len(edges) != len(self.indices):
+            raise ValueError(f"{len(edges)} edge arrays for {len(self.indices)} axes {''.join(self.names)!r}")
+        widths = [np.diff(np.asarray(e, dtype=float)) for e in edges]
+        product = widths[0]
+        for w in widths[1:]:
+            product = np.multiply.outer(product, w)
+        return product * self.transverse_area(box)
+
+
+class XCoordinates(CartesianCoordinates):
     """Profiles along one Cartesian axis: resolve it, integrate over the other two.
 
-    By default the axis is :math:`x` (across a channel); ``axis="z"`` gives
-    profiles in height (e.g. across a flowing layer). The volume of a slab
+    :class:`CartesianCoordinates` with one axis. By default the axis is
+    :math:`x` (across a channel); ``axis="z"`` gives profiles in height (e.g.
+    across a flowing layer). The volume of a slab
     :math:`[x_\\mathrm{lo}, x_\\mathrm{hi})` is
 
     .. math::
@@ -55,67 +179,22 @@ class XCoordinates:
         channel bins are built on (:func:`postproc.kernels.channel_bin_edges`).
     axis : {"x", "y", "z"}
         The resolved axis (its name is the node column of result tables).
-    """
 
-    kind = "x"
-    components = ("x", "y", "z")
+    Attributes
+    ----------
+    axis : int
+        Index of the resolved axis (0, 1, 2 for x, y, z).
+    """
 
     def __init__(self, walls: tuple[float, float] | None = None, axis: str = "x"):
         if axis not in _AXES:
             raise ValueError(f"axis {axis!r} is not one of {', '.join(_AXES)}")
-        if walls is not None:
-            walls = (float(walls[0]), float(walls[1]))
-            if walls[1] <= walls[0]:
-                raise ValueError(f"walls {walls} must be increasing")
-        self.walls = walls
+        super().__init__(axes=axis, walls=walls)
         self.axis = _AXES.index(axis)
-        self.names = (axis,)
-
-    def points(self, frame: ParticleFrame) -> np.ndarray:
-        """Particle coordinate along the axis, shape (N, 1)."""
-        return self.map(frame.position)
-
-    def map(self, positions) -> np.ndarray:
-        """The axis coordinate of positions ``(N, 3)``, shape (N, 1)."""
-        return np.asarray(positions, dtype=float).reshape(-1, 3)[:, self.axis : self.axis + 1]
-
-    @staticmethod
-    def local_vectors(positions, vectors) -> np.ndarray:
-        """Cartesian components unchanged (the basis is the lab frame everywhere)."""
-        return np.asarray(vectors, dtype=float)
-
-    @staticmethod
-    def local_tensors(positions, tensors) -> np.ndarray:
-        """Cartesian components unchanged."""
-        return np.asarray(tensors, dtype=float)
-
-    def transverse_area(self, box) -> float:
-        """Cross-section of the box normal to the axis (:math:`L_y L_z` for x), area units."""
-        box = np.asarray(box, dtype=float)
-        lengths = box[:, 1] - box[:, 0]
-        return float(np.prod([lengths[k] for k in range(3) if k != self.axis]))
-
-    def cell_volumes(self, edges: Sequence[np.ndarray], box) -> np.ndarray:
-        """Slab volumes :math:`\\Delta x\\, L_y L_z`."""
-        (x_edges,) = edges
-        return np.diff(np.asarray(x_edges, dtype=float)) * self.transverse_area(box)
 
 
-class RZCoordinates:
-    """Axisymmetric fields: resolve radius and height, integrate over the azimuth.
-
-    .. math::
-
-        r = \\sqrt{(x - x_0)^2 + (y - y_0)^2}, \\qquad z = z,
-
-    and the volume of a ring cell :math:`[r_\\mathrm{lo}, r_\\mathrm{hi}) \\times
-    [z_\\mathrm{lo}, z_\\mathrm{hi})` is
-
-    .. math::
-
-        V = \\pi (r_\\mathrm{hi}^2 - r_\\mathrm{lo}^2)(z_\\mathrm{hi} - z_\\mathrm{lo}),
-
-    with radial edges below zero clipped to the axis.
+class _Cylindrical:
+    """Distance :math:`r` from a vertical axis through :math:`(x_0, y_0)` and the cylindrical basis.
 
     Vectors and tensors are expressed in the cylindrical basis at each point's
     own azimuth :math:`\\theta = \\operatorname{atan2}(y - y_0, x - x_0)`,
@@ -127,34 +206,23 @@ class RZCoordinates:
         \\mathbf e_z = (0, 0, 1),
 
     components ``r t z`` (``t`` for :math:`\\theta`); on the axis itself
-    (:math:`r = 0`) :math:`\\theta = 0` is taken. A coarse-grained field then
-    averages each particle's components in its own basis: exact for the
-    :math:`z` components and for traces (pressures), and, since a kernel of
-    width :math:`w` mixes azimuths within :math:`\\sim w / r` of each other, accurate
-    to :math:`O(w/r)` for the other components near the axis.
-
-    Parameters
-    ----------
-    axis_center : (float, float)
-        :math:`(x_0, y_0)` of the vertical symmetry axis.
+    (:math:`r = 0`) :math:`\\theta = 0` is taken.
     """
 
-    kind = "rz"
-    names = ("r", "z")
+    cartesian = False
     components = ("r", "t", "z")
 
     def __init__(self, axis_center: tuple[float, float] = (0.0, 0.0)):
         self.axis_center = (float(axis_center[0]), float(axis_center[1]))
 
     def points(self, frame: ParticleFrame) -> np.ndarray:
-        """Particle :math:`(r, z)`, shape (N, 2)."""
+        """Particle coordinates, shape (N, len(names))."""
         return self.map(frame.position)
 
-    def map(self, positions) -> np.ndarray:
-        """:math:`(r, z)` of positions ``(N, 3)``, shape (N, 2)."""
+    def radius(self, positions) -> np.ndarray:
+        """:math:`r = \\sqrt{(x - x_0)^2 + (y - y_0)^2}` of positions ``(N, 3)``, shape (N,)."""
         pos = np.asarray(positions, dtype=float).reshape(-1, 3)
-        r = np.hypot(pos[:, 0] - self.axis_center[0], pos[:, 1] - self.axis_center[1])
-        return np.column_stack([r, pos[:, 2]])
+        return np.hypot(pos[:, 0] - self.axis_center[0], pos[:, 1] - self.axis_center[1])
 
     def azimuth(self, positions) -> tuple[np.ndarray, np.ndarray]:
         """:math:`(\\cos\\theta, \\sin\\theta)` of positions ``(N, 3)``; (1, 0) on the axis."""
@@ -197,6 +265,96 @@ class RZCoordinates:
             c * xz + s * yz,
             -s * xz + c * yz,
         ])
+
+
+class RCoordinates(_Cylindrical):
+    """Radial profiles: resolve the distance from a vertical axis, integrate over azimuth and height.
+
+    .. math::
+
+        r = \\sqrt{(x - x_0)^2 + (y - y_0)^2},
+
+    and the volume of a cylindrical shell :math:`[r_\\mathrm{lo}, r_\\mathrm{hi})`
+    through the box height :math:`L_z` is
+
+    .. math::
+
+        V = \\pi (r_\\mathrm{hi}^2 - r_\\mathrm{lo}^2)\\, L_z,
+
+    with radial edges below zero clipped to the axis. Vectors and tensors are
+    in the cylindrical basis at each particle's azimuth, as for
+    :class:`RZCoordinates` (components ``r t z``).
+
+    Parameters
+    ----------
+    axis_center : (float, float)
+        :math:`(x_0, y_0)` of the vertical symmetry axis.
+    """
+
+    kind = "r"
+    names = ("r",)
+
+    def map(self, positions) -> np.ndarray:
+        """:math:`r` of positions ``(N, 3)``, shape (N, 1)."""
+        return self.radius(positions)[:, None]
+
+    @staticmethod
+    def axial_length(box) -> float:
+        """:math:`L_z`, the box height the fields are averaged over, length units."""
+        return float(_box_lengths(box)[2])
+
+    def cell_volumes(self, edges: Sequence[np.ndarray], box) -> np.ndarray:
+        """Shell volumes :math:`\\pi\\,\\Delta(r^2)\\, L_z`, shape (n_r,)."""
+        (r_edges,) = edges
+        r_edges = np.clip(np.asarray(r_edges, dtype=float), 0.0, None)
+        return np.pi * np.diff(r_edges**2) * self.axial_length(box)
+
+
+class RZCoordinates(_Cylindrical):
+    """Axisymmetric fields: resolve radius and height, integrate over the azimuth.
+
+    .. math::
+
+        r = \\sqrt{(x - x_0)^2 + (y - y_0)^2}, \\qquad z = z,
+
+    and the volume of a ring cell :math:`[r_\\mathrm{lo}, r_\\mathrm{hi}) \\times
+    [z_\\mathrm{lo}, z_\\mathrm{hi})` is
+
+    .. math::
+
+        V = \\pi (r_\\mathrm{hi}^2 - r_\\mathrm{lo}^2)(z_\\mathrm{hi} - z_\\mathrm{lo}),
+
+    with radial edges below zero clipped to the axis.
+
+    Vectors and tensors are expressed in the cylindrical basis at each point's
+    own azimuth :math:`\\theta = \\operatorname{atan2}(y - y_0, x - x_0)`,
+
+    .. math::
+
+        \\mathbf e_r = (\\cos\\theta, \\sin\\theta, 0), \\quad
+        \\mathbf e_\\theta = (-\\sin\\theta, \\cos\\theta, 0), \\quad
+        \\mathbf e_z = (0, 0, 1),
+
+    components ``r t z`` (``t`` for :math:`\\theta`); on the axis itself
+    (:math:`r = 0`) :math:`\\theta = 0` is taken. A coarse-grained field then
+    averages each particle's components in its own basis: exact for the
+    :math:`z` components and for traces (pressures), and, since a kernel of
+    width :math:`w` mixes azimuths within :math:`\\sim w / r` of each other, accurate
+    to :math:`O(w/r)` for the other components near the axis.
+
+    Parameters
+    ----------
+    axis_center : (float, float)
+        :math:`(x_0, y_0)` of the vertical symmetry axis.
+    """
+
+    kind = "rz"
+    names = ("r", "z")
+
+    def map(self, positions) -> np.ndarray:
+        """:math:`(r, z)` of positions ``(N, 3)``, shape (N, 2)."""
+        pos = np.asarray(positions, dtype=float).reshape(-1, 3)
+        return np.column_stack([self.radius(pos), pos[:, 2]])
 
     def cell_volumes(self, edges: Sequence[np.ndarray], box=None) -> np.ndarray:
         """Ring volumes :math:`\\pi\\,\\Delta(r^2)\\,\\Delta z`, shape (n_r, n_z)."""

@@ -72,14 +72,33 @@ Convention: because primitives are averaged first, fluctuations of the node's
 mean velocity (and spin) *between frames* count as kinetic stress and as
 temperature, exactly like fluctuations between particles within a frame.
 
-Components. With :class:`~postproc.coordinates.XCoordinates` vectors and
-tensors are Cartesian (``u_x``, ``sigmak_xy``). With
-:class:`~postproc.coordinates.RZCoordinates` every particle's vectors and tensors
+Components. With Cartesian coordinates
+(:class:`~postproc.coordinates.CartesianCoordinates`, e.g.
+:class:`~postproc.coordinates.XCoordinates`) vectors and tensors are Cartesian
+(``u_x``, ``sigmak_xy``). With :class:`~postproc.coordinates.RZCoordinates` or
+:class:`~postproc.coordinates.RCoordinates` every particle's vectors and tensors
 are first expressed in the cylindrical basis at its own azimuth, so the columns
 are ``u_r u_t u_z`` and ``<f>_rr _tt _zz _rt _rz _tz`` (``t`` for
 :math:`\\theta`): exact for :math:`z` components and for the pressures, accurate
 to :math:`O(w/r)` for the others within a few kernel widths :math:`w` of the axis
 (see :class:`~postproc.coordinates.RZCoordinates`).
+
+Volume fraction in slabs. By default (``volume="centre"``) each particle's
+whole volume is deposited with the kernel at its centre. With Heaviside bins
+along one Cartesian axis, ``volume="exact"`` instead splits each sphere's volume
+exactly over the slabs :math:`[e_k, e_{k+1})` it overlaps (spherical caps,
+:func:`postproc.overlap.sphere_slab_fraction`),
+
+.. math::
+
+    \\phi_k = \\overline{\\textstyle\\sum_i \\tfrac43\\pi r_i^3 f_{ik}} / V_k, \\qquad
+    f_{ik} = F(e_{k+1} - x_i) - F(e_k - x_i), \\quad
+    F(h) = \\tfrac14 (1 + \\hat h)^2 (2 - \\hat h), \\ \\hat h = \\operatorname{clip}(h / r_i, -1, 1),
+
+which removes the spurious layering of :math:`\\phi` in slabs narrower than a
+few diameters (near walls, say). Only the ``volume`` primitive changes
+(:math:`\\phi` and the species :math:`\\phi_j`); parts of spheres beyond the
+outer edges are lost.
 
 Species (Rubio-Largo et al. 2016, eqs 2 and 8). Given ``species`` (type ids),
 mass, volume, momentum and momentum flux are also accumulated per species
@@ -151,6 +170,7 @@ from .contacts import ContactFrame, branch_quadrature
 from .coordinates import XCoordinates
 from .frame import ParticleFrame
 from .kernels import HeavisideBins, channel_bin_edges
+from .overlap import _slab_pairs
 
 #: Field names in output order (the default set).
 FIELDS = ("n", "phi", "rho", "u", "Omega", "T", "sigmac", "sigmak", "sigma")
@@ -334,9 +354,9 @@ class FieldAccumulator(ConcludedResult):
 
     Parameters
     ----------
-    kernel : HeavisideBins or Gaussian
+    kernel : HeavisideBins, Gaussian or Lucy
         How particles spread onto nodes (:mod:`postproc.kernels`).
-    coordinates : XCoordinates or RZCoordinates
+    coordinates : CartesianCoordinates, XCoordinates, RCoordinates or RZCoordinates
         Which coordinates the kernel resolves (:mod:`postproc.coordinates`); also
         the basis of vector and tensor components (module docstring).
     fields : sequence of str
@@ -356,7 +376,13 @@ class FieldAccumulator(ConcludedResult):
         (module docstring). Every particle's type must be listed.
     method : {"auto", "compiled", "numpy"}
         Deposit path of a :class:`~postproc.kernels.Gaussian` kernel (``numpy``
-        is the reference; Heaviside bins always use numpy).
+        is the reference; Heaviside bins and Lucy always use numpy).
+    volume : {"centre", "exact"}
+        How particle volumes (``phi`` and the species ``phi``) are deposited:
+        ``centre``, the whole sphere with the kernel at its centre; ``exact``,
+        each sphere split exactly over the slabs it overlaps (module docstring),
+        only with :class:`~postproc.kernels.HeavisideBins` on a one-axis
+        Cartesian coordinate system.
 
     Examples
     --------
@@ -386,7 +412,7 @@ class FieldAccumulator(ConcludedResult):
     """
 
     def __init__(self, kernel, coordinates, fields: Sequence[str] = FIELDS, n_blocks: int = 8,
-                 species: Sequence[int] | None = None, method: str = "auto"):
+                 species: Sequence[int] | None = None, method: str = "auto", volume: str = "centre"):
         unknown = [f for f in fields if f not in ALL_FIELDS]
         if unknown:
             raise ValueError(f"unknown fields {unknown}; choose from {ALL_FIELDS}")
@@ -402,6 +428,18 @@ class FieldAccumulator(ConcludedResult):
         if self.species is not None and (not self.species or len(set(self.species)) != len(self.species)):
             raise ValueError(f"species must be distinct type ids, got {species!r}")
         self.method = method
+        if volume not in ("centre", "exact"):
+            raise ValueError(f"volume must be 'centre' or 'exact', not {volume!r}")
+        if volume == "exact" and not (
+            isinstance(kernel, HeavisideBins) and getattr(coordinates, "cartesian", False)
+            and len(coordinates.names) == 1
+        ):
+            raise ValueError(
+                "volume='exact' is supported only with HeavisideBins on a one-axis Cartesian coordinate "
+                f"system (e.g. XCoordinates); got {type(kernel).__name__} on "
+                f"{type(coordinates).__name__} {tuple(coordinates.names)}"
+            )
+        self.volume = volume
         self._prepared = False
         self._reset()
 
@@ -558,7 +596,7 @@ class FieldAccumulator(ConcludedResult):
 
     def _local_frame(self, frame: ParticleFrame) -> ParticleFrame:
         """The frame with vectors and tensors in the coordinates' basis at each particle."""
-        if self.coordinates.kind == "x":
+        if self.coordinates.cartesian:
             return frame
         c = self.coordinates
         return replace(
@@ -592,10 +630,19 @@ class FieldAccumulator(ConcludedResult):
             values[:, k : k + width] = _PRIMITIVES[p].values(frame)
             k += width
         points = self.coordinates.points(frame)
+        exact = self.volume == "exact" and "volume" in primitives
+        if exact:
+            k_volume = sum(_PRIMITIVES[p].width for p in primitives[: list(primitives).index("volume")])
         if self.species is None:
-            return self._deposit(points, values, frame.box)[0], None
+            dens = self._deposit(points, values, frame.box)
+            if exact:
+                dens[:, :, k_volume] = self._exact_volume(frame, points)
+            return dens[0], None
         n_species = len(self.species)
-        dens = self._deposit(points, values, frame.box, self._species_index(frame), n_species)
+        groups = self._species_index(frame)
+        dens = self._deposit(points, values, frame.box, groups, n_species)
+        if exact:
+            dens[:, :, k_volume] = self._exact_volume(frame, points, groups, n_species)
         columns, k = [], 0
         for p in primitives:
             width = _PRIMITIVES[p].width
@@ -604,6 +651,16 @@ class FieldAccumulator(ConcludedResult):
             k += width
         by_species = dens[:, :, columns].transpose(1, 0, 2).reshape(dens.shape[1], -1)
         return dens.sum(axis=0), by_species
+
+    def _exact_volume(self, frame: ParticleFrame, points, groups=None, n_groups: int = 1) -> np.ndarray:
+        """Sphere volumes split exactly over the slabs, per slab volume, shape (n_groups, n_slabs)."""
+        (edges,) = self.kernel.edges
+        particle, slab, fraction = _slab_pairs(np.asarray(points, float)[:, 0], frame.radius, edges)
+        n_slabs = len(edges) - 1
+        index = slab if groups is None else groups[particle] * n_slabs + slab
+        volumes = self.kernel.node_volumes(self.coordinates, frame.box)  # this frame's, as the bins' weights
+        weight = fraction * frame.volume[particle] / volumes[slab]
+        return np.bincount(index, weights=weight, minlength=n_groups * n_slabs).reshape(n_groups, n_slabs)
 
     def _contact_density(self, frame: ParticleFrame, contacts: ContactFrame) -> np.ndarray:
         """Contact stress density (n_nodes, 6) from the branch-line quadrature."""
@@ -641,7 +698,7 @@ class FieldAccumulator(ConcludedResult):
 
 
 def _kernel_width(kernel) -> float:
-    """Length scale the branch quadrature must resolve: the Gaussian width or the narrowest bin."""
+    """Length scale the branch quadrature must resolve: the kernel's width or the narrowest bin."""
     if hasattr(kernel, "width"):
         return float(kernel.width)
     return float(min(np.min(np.diff(e)) for e in kernel.edges))

@@ -17,13 +17,20 @@ List the registered scenes::
 Run (or resume) a rendered case on 2 MPI ranks::
 
     granflow run /tmp/channel --np 2
+
+Coarse-grain any LAMMPS dump (see ``granflow cg --help``)::
+
+    granflow cg dump.bin --coords rz --axis 0.05,0.05 --width 0.002 --spacing 0.002 --out cg
 """
 from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import sys
 from pathlib import Path
+
+from postproc import cg_cli
 
 from . import registry
 from .campaign import load_campaign
@@ -82,6 +89,11 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_cg(args) -> int:
+    argv = getattr(args, "_argv", sys.argv[1:])
+    return cg_cli.run(args, command=" ".join(["granflow", *map(shlex.quote, argv)]))
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="granflow",
@@ -123,11 +135,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("case_dir")
     p.add_argument("--np", type=int, default=1, help="MPI ranks (default 1)")
     p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("cg", help="coarse-grain any LAMMPS dump into continuum fields (CSV, JSON, VTK)",
+                       description=cg_cli.DESCRIPTION, epilog=cg_cli.EPILOG,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    cg_cli.add_arguments(p)
+    p.set_defaults(func=cmd_cg)
     return ap
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
+    args._argv = argv
     try:
         return args.func(args)
     except (ConfigError, PreflightError) as exc:

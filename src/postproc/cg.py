@@ -1,0 +1,795 @@
+"""Coarse-grain anyone's LAMMPS dumps: the Python API behind ``granflow cg``.
+
+:func:`coarse_grain` streams the frames of one or more ``dump custom`` files
+(text, gzipped text or binary, told apart by their content), optionally with the
+contacts of ``dump local`` files, through a
+:class:`~postproc.fields.FieldAccumulator` and returns time-averaged continuum
+fields on a regular grid with standard errors over blocks of frames;
+:func:`write_result` writes them as ``fields.csv``, ``meta.json`` and
+``fields.vtr`` (a VTK rectilinear grid that ParaView opens).
+
+Nothing here needs a granflow case directory: the inputs are the dump files and
+the choices below, and every choice is written to ``meta.json``.
+
+Choices
+-------
+coordinates
+    ``x``, ``y``, ``z``, ``xy``, ``xz``, ``yz``, ``xyz`` resolve those Cartesian
+    axes and integrate over the others (over the box); ``r`` resolves the distance
+    from a vertical axis through :math:`(x_0, y_0)` and integrates over the
+    azimuth and :math:`z`; ``rz`` resolves radius and height. Vectors and
+    tensors are Cartesian, or in the cylindrical basis (``r t z``) for ``r`` and
+    ``rz``.
+kernel
+    ``heaviside`` (bins of the grid spacing; volume fraction with the exact
+    sphere-slab split as an option for one Cartesian axis), ``gaussian``
+    (standard deviation ``width``, truncated at ``cutoff``, default
+    :data:`GAUSSIAN_CUTOFF` widths) or ``lucy`` (Lucy's polynomial, ``width``
+    is its range, where it falls to zero).
+grid
+    ``spacing`` and ``ranges`` per coordinate (one value for all, or one per
+    coordinate in their order). Nodes are the centres of the cells of that
+    spacing covering the range (the spacing is adjusted to a whole number of
+    cells, and the adjusted value recorded). The default range is the box along
+    a Cartesian axis and its height, and from the axis to the nearest side wall
+    of the box for the radius.
+
+Fields (columns of :attr:`CGResult.fields`): the node coordinates (named as the
+coordinates), ``n`` (mean number of particles per node cell), ``phi`` (volume
+fraction), ``rho`` (mass density), ``v_<c>`` (mass-weighted velocity
+components), ``sigmak_<cc>`` and ``pk`` (kinetic stress and a third of its
+trace), with contacts (or a per-atom ``c_stress[1..6]``) ``sigmac_<cc>``,
+``pc``, ``sigma_<cc>``, ``p``; with angular velocities ``Omega_<c>`` and ``T``;
+with species the partials ``rho_s<t>``, ``phi_s<t>``, ``sigmak_s<t>_<cc>``,
+``pk_s<t>``; and ``<column>_se`` for each, the standard error over blocks of
+consecutive frames (:mod:`postproc.fields` gives the definitions). Stresses are
+compressive positive. Units are those of the dump.
+
+Example
+-------
+.. code-block:: python
+
+    from postproc.cg import coarse_grain, write_result
+
+    result = coarse_grain(["dump.hopper.bin"], coords="rz", axis=(0.05, 0.05),
+                          kernel="gaussian", width=0.002, spacing=0.002,
+                          contacts=["dump.contacts"], frames="100000:200000")
+    write_result(result, "cg_out")
+    print(result.fields[["r", "z", "rho", "v_z"]])
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable, Iterator, Sequence
+
+import numpy as np
+import pandas as pd
+
+from .contacts import ContactFrame, read_contact_dump
+from .coordinates import CartesianCoordinates, RCoordinates, RZCoordinates
+from .dump import DumpError, dump_format, missing_particle_columns, read_dumps
+from .fields import FieldAccumulator
+from .frame import DumpFrame, ParticleFrame
+from .kernels import Gaussian, HeavisideBins, Lucy
+
+__all__ = [
+    "COORDINATES",
+    "KERNELS",
+    "CGInputError",
+    "FrameSelection",
+    "Grid",
+    "CGResult",
+    "coarse_grain",
+    "write_result",
+]
+
+#: Coordinate choices.
+COORDINATES = ("x", "y", "z", "xy", "xz", "yz", "xyz", "r", "rz")
+#: Kernel choices.
+KERNELS = ("gaussian", "lucy", "heaviside")
+#: Default truncation of the Gaussian, in standard deviations.
+GAUSSIAN_CUTOFF = 3.0
+#: Default node budget (the accumulator keeps ~130 copies of the primitive
+#: densities for block errors: 250 000 nodes x 26 primitives is ~7 GB).
+DEFAULT_MAX_NODES = 100_000
+#: Blocks of consecutive frames for the standard errors.
+DEFAULT_BLOCKS = 8
+#: A grid holding fewer particle-frames than this fraction of those read is
+#: reported as (mostly) empty.
+SPARSE_FRACTION = 0.01
+
+_FIELDS = ("n", "phi", "rho", "u", "Omega", "T", "sigmac", "sigmak", "sigma", "pk", "pc", "p")
+
+
+class CGInputError(ValueError):
+    """Input that :func:`coarse_grain` refuses; the message names the option, the value and what is allowed."""
+
+
+# --------------------------------------------------------------------------- frames
+
+
+@dataclass(frozen=True)
+class FrameSelection:
+    """Frames by timestep: ``start <= step <= stop`` and every ``every``-th step from ``start``.
+
+    Parsed from ``START:STOP[:EVERY]`` (:meth:`parse`); an empty part is open.
+    """
+
+    start: int | None = None
+    stop: int | None = None
+    every: int | None = None
+
+    @classmethod
+    def parse(cls, text: str | None) -> "FrameSelection":
+        if text is None or text == "":
+            return cls()
+        parts = str(text).split(":")
+        if len(parts) not in (2, 3):
+            raise CGInputError(f"--frames {text!r} is not START:STOP[:EVERY] (timesteps, STOP included)")
+        values = []
+        for name, part in zip(("START", "STOP", "EVERY"), parts):
+            if part.strip() == "":
+                values.append(None)
+                continue
+            try:
+                value = int(part)
+            except ValueError:
+                raise CGInputError(f"--frames {text!r}: {name} {part!r} is not an integer timestep") from None
+            if value < 0:
+                raise CGInputError(f"--frames {text!r}: {name} {value} must be >= 0")
+            values.append(value)
+        values += [None] * (3 - len(values))
+        start, stop, every = values
+        if start is not None and stop is not None and stop < start:
+            raise CGInputError(f"--frames {text!r}: STOP {stop} is before START {start}")
+        if every is not None and every < 1:
+            raise CGInputError(f"--frames {text!r}: EVERY must be at least 1, got {every}")
+        return cls(start, stop, every)
+
+    def __call__(self, timestep: int) -> bool:
+        if self.start is not None and timestep < self.start:
+            return False
+        if self.stop is not None and timestep > self.stop:
+            return False
+        if self.every is not None and (timestep - (self.start or 0)) % self.every:
+            return False
+        return True
+
+    def describe(self) -> str:
+        if self == FrameSelection():
+            return "all frames"
+        lo = "first" if self.start is None else f"step {self.start}"
+        hi = "last" if self.stop is None else f"step {self.stop}"
+        every = "" if self.every is None else f", every {self.every} steps"
+        return f"{lo} to {hi} (included){every}"
+
+
+# --------------------------------------------------------------------------- grid
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A regular grid of cells: per coordinate a range ``(lo, hi)`` cut into ``count`` cells.
+
+    Nodes are the cell centres; Heaviside bins are the cells themselves.
+    """
+
+    names: tuple[str, ...]
+    ranges: tuple[tuple[float, float], ...]
+    counts: tuple[int, ...]
+
+    @property
+    def spacing(self) -> tuple[float, ...]:
+        return tuple((hi - lo) / n for (lo, hi), n in zip(self.ranges, self.counts))
+
+    @property
+    def n_nodes(self) -> int:
+        return int(np.prod(self.counts))
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(self.counts)
+
+    def edges(self) -> tuple[np.ndarray, ...]:
+        return tuple(np.linspace(lo, hi, n + 1) for (lo, hi), n in zip(self.ranges, self.counts))
+
+    def nodes(self) -> tuple[np.ndarray, ...]:
+        return tuple(0.5 * (e[1:] + e[:-1]) for e in self.edges())
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """Which points (N, d) lie inside the grid's ranges."""
+        inside = np.ones(len(points), dtype=bool)
+        for k, (lo, hi) in enumerate(self.ranges):
+            inside &= (points[:, k] >= lo) & (points[:, k] <= hi)
+        return inside
+
+    def describe(self) -> str:
+        return ", ".join(f"{n} in [{lo:g}, {hi:g}] ({c} nodes)" for n, (lo, hi), c in
+                         zip(self.names, self.ranges, self.counts))
+
+
+def _per_coordinate(values, names: Sequence[str], option: str) -> list:
+    values = list(values) if isinstance(values, (list, tuple)) else [values]
+    if len(values) == 1:
+        return values * len(names)
+    if len(values) != len(names):
+        raise CGInputError(f"{option} gives {len(values)} values but the coordinates {''.join(names)!r} "
+                           f"have {len(names)}: give one for all or one per coordinate, in the order "
+                           f"{', '.join(names)}")
+    return values
+
+
+def parse_numbers(text: str, option: str) -> list[float]:
+    """``"0.1,0.2"`` -> [0.1, 0.2], refusing anything that is not a finite number."""
+    out = []
+    for part in str(text).split(","):
+        try:
+            value = float(part)
+        except ValueError:
+            raise CGInputError(f"{option} {text!r}: {part!r} is not a number") from None
+        if not math.isfinite(value):
+            raise CGInputError(f"{option} {text!r}: {part!r} is not finite")
+        out.append(value)
+    return out
+
+
+def parse_ranges(text: str | None) -> list[tuple[float, float]] | None:
+    """``"LO:HI[,LO:HI,...]"`` -> [(lo, hi), ...]; None for None."""
+    if text is None:
+        return None
+    out = []
+    for part in str(text).split(","):
+        bounds = part.split(":")
+        if len(bounds) != 2:
+            raise CGInputError(f"--range {text!r}: {part!r} is not LO:HI")
+        lo, hi = (parse_numbers(b, "--range")[0] for b in bounds)
+        out.append((lo, hi))
+    return out
+
+
+def _coordinates(coords: str, axis):
+    if coords in ("r", "rz"):
+        cls = RCoordinates if coords == "r" else RZCoordinates
+        return cls(axis)
+    return CartesianCoordinates(coords)
+
+
+def _default_range(name: str, box: np.ndarray, axis) -> tuple[float, float]:
+    if name == "r":
+        x0, y0 = axis
+        return 0.0, float(min(x0 - box[0, 0], box[0, 1] - x0, y0 - box[1, 0], box[1, 1] - y0))
+    k = "xyz".index(name)
+    return float(box[k, 0]), float(box[k, 1])
+
+
+def make_grid(names: Sequence[str], spacing, ranges, box: np.ndarray, axis=None,
+              kernel: str = "gaussian") -> tuple[Grid, list[str]]:
+    """The grid of ``spacing`` over ``ranges`` (default from the box); notes on adjusted spacings."""
+    spacing = _per_coordinate(spacing, names, "--spacing")
+    ranges = _per_coordinate(ranges, names, "--range") if ranges is not None else [None] * len(names)
+    out_ranges, counts, notes = [], [], []
+    for name, h, rng in zip(names, spacing, ranges):
+        if not (h > 0 and math.isfinite(h)):
+            raise CGInputError(f"--spacing {h} for {name} must be a positive finite length")
+        lo, hi = rng if rng is not None else _default_range(name, box, axis)
+        if not hi > lo:
+            source = "--range" if rng is not None else f"the box (from the first frame) gives {name} range"
+            raise CGInputError(f"{source} {lo:g}:{hi:g} for {name} is empty: HI must exceed LO")
+        if name == "r" and lo < 0:
+            raise CGInputError(f"--range {lo:g}:{hi:g} for r starts below 0; the radius is >= 0")
+        n = max(1, int(round((hi - lo) / h)))
+        if abs(n * h - (hi - lo)) > 1e-9 * (hi - lo):
+            notes.append(f"spacing along {name} adjusted from {h:g} to {(hi - lo) / n:g} "
+                         f"for a whole number of cells in [{lo:g}, {hi:g}]")
+        if kernel != "heaviside" and n < 2:
+            raise CGInputError(f"--spacing {h:g} gives a single node along {name} in [{lo:g}, {hi:g}]; "
+                               f"a smooth kernel needs at least 2 nodes per coordinate")
+        out_ranges.append((float(lo), float(hi)))
+        counts.append(n)
+    return Grid(tuple(names), tuple(out_ranges), tuple(counts)), notes
+
+
+def make_kernel(kernel: str, grid: Grid, width: float | None, cutoff: float | None):
+    if kernel == "heaviside":
+        return HeavisideBins(grid.edges())
+    if kernel == "gaussian":
+        return Gaussian(width, cutoff if cutoff is not None else GAUSSIAN_CUTOFF * width, grid.nodes())
+    return Lucy(width, grid.nodes())
+
+
+# --------------------------------------------------------------------------- result
+
+
+@dataclass
+class CGResult:
+    """Fields and the record of how they were made.
+
+    Attributes
+    ----------
+    fields : pandas.DataFrame
+        One row per node (C order over the coordinates, the last fastest).
+    meta : dict
+        Inputs, frames, choices, units and warnings (written as ``meta.json``).
+    grid : Grid
+    """
+
+    fields: pd.DataFrame
+    meta: dict
+    grid: Grid
+    warnings: list[str] = field(default_factory=list)
+
+
+class _Progress:
+    """Frames done, on one stderr line (a bar when the total is known), at most every ``interval`` s."""
+
+    def __init__(self, total: int | None, stream=None, interval: float = 0.5):
+        self.total = total
+        self.stream = stream
+        self.interval = interval
+        self.tty = bool(stream is not None and getattr(stream, "isatty", lambda: False)())
+        self.last = 0.0
+        self.start = time.perf_counter()
+        self.printed = False
+
+    def update(self, frames: int, particles: int, step: int, final: bool = False) -> None:
+        if self.stream is None:
+            return
+        now = time.perf_counter()
+        if not final and now - self.last < (self.interval if self.tty else 30.0):
+            return
+        self.last = now
+        rate = particles / max(now - self.start, 1e-9)
+        if self.total:
+            done = min(frames / self.total, 1.0)
+            bar = "#" * int(30 * done) + "-" * (30 - int(30 * done))
+            text = f"cg [{bar}] {frames}/{self.total} frames"
+        else:
+            text = f"cg {frames} frames"
+        text += f", step {step}, {rate / 1e6:.2f} M particle-frames/s"
+        if self.tty:
+            self.stream.write("\r" + text + ("\n" if final else ""))
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+        self.printed = True
+
+
+def _sha256(path: str | os.PathLike) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 22), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _first_frames(paths: Sequence[str], select: Callable[[int], bool], limit: int = 64) -> tuple[DumpFrame, DumpFrame | None]:
+    """The first selected frame and the first selected one holding atoms (None if not within ``limit``)."""
+    first = None
+    for k, frame in enumerate(read_dumps(paths, select=select)):
+        first = first or frame
+        if frame.natoms > 0:
+            return first, frame
+        if k >= limit:
+            break
+    if first is None:
+        raise CGInputError(f"no frame of {', '.join(paths)} is selected by --frames")
+    return first, None
+
+
+def _radii(frame: DumpFrame) -> np.ndarray | None:
+    c = frame.columns
+    if "radius" in c:
+        return np.asarray(c["radius"], float)
+    if "diameter" in c:
+        return 0.5 * np.asarray(c["diameter"], float)
+    return None
+
+
+def _paired(frames: Iterable[ParticleFrame], contacts: Iterator[ContactFrame] | None, select,
+            strict_end: Callable[[], bool]):
+    """Yield (frame, contacts) with contacts matched by timestep; refuse unmatched ones."""
+    if contacts is None:
+        for frame in frames:
+            yield frame, None
+        return
+    pending: ContactFrame | None = None
+
+    def next_contact():
+        for c in contacts:
+            if select(c.timestep):
+                return c
+        return None
+
+    pending = next_contact()
+    for frame in frames:
+        while pending is not None and pending.timestep < frame.timestep:
+            raise CGInputError(f"contact frame at step {pending.timestep} has no atom frame at that step "
+                               f"(the next atom frame is at step {frame.timestep}); contacts and atoms "
+                               f"must be dumped at the same steps")
+        if pending is None or pending.timestep != frame.timestep:
+            raise CGInputError(f"atom frame at step {frame.timestep} has no contact frame at that step"
+                               + ("" if pending is None else f" (the next contact frame is at step {pending.timestep})"))
+        yield frame, pending
+        pending = next_contact()
+    if pending is not None and strict_end():
+        raise CGInputError(f"contact frame at step {pending.timestep} has no atom frame at that step "
+                           f"(the atom frames end before it)")
+
+
+def coarse_grain(
+    dumps: Sequence[str | os.PathLike],
+    coords: str = "z",
+    *,
+    spacing,
+    axis: tuple[float, float] | None = None,
+    kernel: str = "gaussian",
+    width: float | None = None,
+    cutoff: float | None = None,
+    ranges=None,
+    contacts: Sequence[str | os.PathLike] = (),
+    contact_roles: dict[str, str] | None = None,
+    species=None,
+    frames: str | FrameSelection | None = None,
+    density: float | None = None,
+    volume: str = "centre",
+    n_blocks: int = DEFAULT_BLOCKS,
+    max_nodes: int = DEFAULT_MAX_NODES,
+    allow_truncated: bool = False,
+    progress=None,
+    method: str = "auto",
+) -> CGResult:
+    """Time-averaged coarse-grained fields of LAMMPS dumps on a regular grid.
+
+    Every choice is checked, against the first selected frame, before the frames
+    are read; the frames are then streamed (memory does not grow with their
+    number).
+
+    Parameters
+    ----------
+    dumps : sequence of path
+        ``dump custom`` files in time order (text, gzipped text or binary, any
+        column order); they need positions (``x y z``, ``xu yu zu`` or
+        ``xs ys zs``), ``vx vy vz``, ``radius`` or ``diameter``, and ``mass``
+        unless ``density`` is given. ``id`` is needed with contacts, ``type``
+        with species, ``omegax omegay omegaz`` for spin and temperature.
+    coords : str
+        One of :data:`COORDINATES` (module docstring).
+    spacing : float or sequence of float
+        Node spacing, one for all coordinates or one per coordinate.
+    axis : (float, float), optional
+        :math:`(x_0, y_0)` of the vertical axis of ``r`` and ``rz``; default the
+        centre of the box in :math:`x, y` (recorded in the meta and a warning).
+    kernel : str
+        One of :data:`KERNELS`.
+    width : float
+        Gaussian standard deviation, or Lucy's range; required for both, at least
+        the smallest particle radius.
+    cutoff : float, optional
+        Gaussian truncation radius (default :data:`GAUSSIAN_CUTOFF` widths).
+    ranges : (lo, hi) or sequence of (lo, hi), optional
+        Grid range per coordinate (module docstring for the default).
+    contacts : sequence of path
+        ``dump local`` files of ``compute pair/local`` with ``property/local``
+        ids, at the same steps as the atom frames; they give the contact stress.
+    contact_roles : dict, optional
+        Column name of each role (``id1 id2 dx dy dz fx fy fz`` ...), when the
+        header does not say (:func:`postproc.contacts.read_contact_dump`).
+    species : "auto" or sequence of int, optional
+        Per-type partial fields; ``"auto"`` takes the types of the first frame
+        holding atoms.
+    frames : str or FrameSelection, optional
+        ``START:STOP[:EVERY]`` in timesteps, STOP included.
+    density : float, optional
+        Particle material density, when the dump has no mass column.
+    volume : {"centre", "exact"}
+        Volume fraction from whole spheres at their centres, or (Heaviside bins
+        along one Cartesian axis) from each sphere's exact split over the bins.
+    n_blocks : int
+        Blocks of consecutive frames for the standard errors.
+    max_nodes : int
+        Node budget; a larger grid is refused before reading.
+    allow_truncated : bool
+        On a truncated dump, keep the fields of the complete frames (with a
+        warning) instead of refusing.
+    progress : file-like, optional
+        Stream for a progress line (e.g. ``sys.stderr``); None is silent.
+    method : {"auto", "compiled", "numpy"}
+        Deposit path (the compiled one is used for Gaussian ``rz`` by default).
+
+    Returns
+    -------
+    CGResult
+
+    Raises
+    ------
+    CGInputError
+        For any refused choice or input, before reading when it can be known then.
+    """
+    t_start = time.perf_counter()
+    paths = [os.fspath(p) for p in dumps]
+    contact_paths = [os.fspath(p) for p in contacts or ()]
+    if not paths:
+        raise CGInputError("no dump file given")
+    for p in paths + contact_paths:
+        if not os.path.isfile(p):
+            raise CGInputError(f"dump file {p} does not exist")
+    if coords not in COORDINATES:
+        raise CGInputError(f"--coords {coords!r} is not one of {', '.join(COORDINATES)}")
+    if kernel not in KERNELS:
+        raise CGInputError(f"--kernel {kernel!r} is not one of {', '.join(KERNELS)}")
+    if kernel != "heaviside":
+        if width is None:
+            raise CGInputError(f"--width is required for the {kernel} kernel "
+                               f"({'standard deviation' if kernel == 'gaussian' else 'range, where it falls to zero'})")
+        if not (math.isfinite(width) and width > 0):
+            raise CGInputError(f"--width {width} must be a positive finite length")
+        if cutoff is not None and kernel == "gaussian" and not (math.isfinite(cutoff) and cutoff > 0):
+            raise CGInputError(f"--cutoff {cutoff} must be a positive finite length")
+    if volume not in ("centre", "exact"):
+        raise CGInputError(f"volume {volume!r} is not 'centre' or 'exact'")
+    if volume == "exact" and not (kernel == "heaviside" and coords in ("x", "y", "z")):
+        raise CGInputError("--exact-volume needs --kernel heaviside and one Cartesian coordinate (x, y or z); "
+                           f"got --kernel {kernel} --coords {coords}")
+    if density is not None and not (math.isfinite(density) and density > 0):
+        raise CGInputError(f"--density {density} must be a positive finite number")
+    if int(n_blocks) < 2:
+        raise CGInputError(f"--blocks {n_blocks} must be at least 2 for standard errors")
+    select = frames if isinstance(frames, FrameSelection) else FrameSelection.parse(frames)
+
+    try:
+        formats = [dump_format(p) for p in paths]
+        contact_formats = [dump_format(p) for p in contact_paths]
+        first, populated = _first_frames(paths, select)
+    except DumpError as exc:
+        raise CGInputError(str(exc)) from None
+    names = list(first.columns)
+    lacking = missing_particle_columns(names, density)
+    if lacking:
+        raise CGInputError(f"{paths[0]} lacks {'; '.join(lacking)}; the file has the columns {' '.join(names)}")
+    if contact_paths and "id" not in first.columns:
+        raise CGInputError(f"--contacts needs the atom ids: {paths[0]} has no 'id' column "
+                           f"(columns: {' '.join(names)})")
+    if species is not None and "type" not in first.columns:
+        raise CGInputError(f"--species needs the atom types: {paths[0]} has no 'type' column "
+                           f"(columns: {' '.join(names)})")
+    box = np.asarray(first.box, dtype=float)
+    warnings: list[str] = []
+    axis_source = None
+    if coords in ("r", "rz"):
+        if axis is None:
+            axis = (0.5 * (box[0, 0] + box[0, 1]), 0.5 * (box[1, 0] + box[1, 1]))
+            axis_source = "box centre (no --axis given)"
+            warnings.append(f"axis not given: using the centre of the box in x, y, ({axis[0]:g}, {axis[1]:g})")
+        else:
+            axis = (float(axis[0]), float(axis[1]))
+            axis_source = "given"
+            if not all(math.isfinite(a) for a in axis):
+                raise CGInputError(f"--axis {axis} must be two finite numbers")
+            if not (box[0, 0] <= axis[0] <= box[0, 1] and box[1, 0] <= axis[1] <= box[1, 1]):
+                raise CGInputError(
+                    f"--axis {axis[0]:g},{axis[1]:g} lies outside the box (x in [{box[0, 0]:g}, {box[0, 1]:g}], "
+                    f"y in [{box[1, 0]:g}, {box[1, 1]:g}] at step {first.timestep})")
+    elif axis is not None:
+        raise CGInputError(f"--axis applies to --coords r and rz, not {coords}")
+    coordinates = _coordinates(coords, axis)
+    grid, notes = make_grid(coordinates.names, spacing, ranges, box, axis, kernel)
+    warnings += notes
+    if grid.n_nodes > int(max_nodes):
+        raise CGInputError(f"the grid has {grid.n_nodes} nodes ({grid.describe()}), over the budget of "
+                           f"{int(max_nodes)}: use a coarser --spacing, a smaller --range or raise --max-nodes "
+                           f"(memory grows as nodes x fields x {16 * int(n_blocks)} block sums)")
+    radii = _radii(populated) if populated is not None else None
+    if kernel != "heaviside" and radii is not None and radii.size and width < radii.min():
+        raise CGInputError(
+            f"--width {width:g} is below the smallest particle radius {radii.min():g} (frame at step "
+            f"{populated.timestep}): a kernel narrower than a particle resolves single particles, not a "
+            f"continuum; use a width of a radius or more (typically one to two diameters)")
+    if species == "auto":
+        if populated is None:
+            raise CGInputError("--species without ids: the first frames hold no atoms to take the types from; "
+                               "give them, e.g. --species 1,2")
+        species = sorted({int(t) for t in np.rint(populated.columns["type"])})
+    try:
+        kernel_obj = make_kernel(kernel, grid, width, cutoff)
+    except ValueError as exc:
+        raise CGInputError(str(exc)) from None
+    if kernel != "heaviside" and cutoff is None:
+        cutoff = GAUSSIAN_CUTOFF * width if kernel == "gaussian" else width
+
+    accumulator = FieldAccumulator(kernel_obj, coordinates, fields=_FIELDS, n_blocks=n_blocks,
+                                   species=species, method=method, volume=volume)
+    accumulator.prepare()
+
+    total_frames = None
+    if progress is not None and all(f == "binary" for f in formats):
+        # count the selected frames from the headers alone (select says no to all)
+        selected = []
+        try:
+            for _ in read_dumps(paths, select=lambda step: bool(selected.append(select(step)))):
+                pass
+            total_frames = sum(selected)
+        except DumpError:
+            total_frames = None
+    bar = _Progress(total_frames, progress)
+
+    truncated = None
+    n_frames = n_particles = n_inside = 0
+    steps: list[int] = []
+    times: list[float] = []
+    units = first.units
+
+    def particle_frames() -> Iterator[ParticleFrame]:
+        nonlocal truncated
+        try:
+            for frame in read_dumps(paths, select=select):
+                yield ParticleFrame.from_dump(frame, density=density)
+        except DumpError as exc:
+            if getattr(exc, "truncated", False) and allow_truncated:
+                truncated = str(exc)
+                return
+            hint = " (--allow-truncated keeps the fields of the complete frames)" if getattr(exc, "truncated", False) else ""
+            raise CGInputError(f"{exc}{hint}") from None
+
+    contact_stream = None
+    if contact_paths:
+        def contact_frames():
+            try:
+                for p in contact_paths:
+                    yield from read_contact_dump(p, roles=contact_roles)
+            except DumpError as exc:
+                if getattr(exc, "truncated", False) and allow_truncated:
+                    return
+                raise CGInputError(str(exc)) from None
+        contact_stream = contact_frames()
+
+    for frame, contact in _paired(particle_frames(), contact_stream, select, lambda: truncated is None):
+        if contact is not None and contact.branch is None:
+            contact = contact.with_branch(frame)
+        try:
+            accumulator.accumulate(frame, contact)
+        except (ValueError, KeyError) as exc:
+            raise CGInputError(f"frame at step {frame.timestep}: {exc}") from None
+        n_frames += 1
+        n_particles += len(frame.mass)
+        if len(frame.mass):
+            n_inside += int(grid.contains(coordinates.points(frame)).sum())
+        steps.append(int(frame.timestep))
+        if frame.time is not None:
+            times.append(float(frame.time))
+        bar.update(n_frames, n_particles, frame.timestep)
+    bar.update(n_frames, n_particles, steps[-1] if steps else 0, final=True)
+    if n_frames == 0:
+        raise CGInputError(f"no complete frame selected ({select.describe()}) in {', '.join(paths)}")
+    table = accumulator.conclude()
+    fields_table = _tidy(table, coordinates.names)
+
+    if truncated:
+        warnings.append(f"truncated input: {truncated}; fields from the {n_frames} complete frames before it")
+    if n_particles == 0:
+        warnings.append(f"the {n_frames} selected frames hold no particles: every field is empty")
+    elif n_inside < SPARSE_FRACTION * n_particles:
+        warnings.append(
+            f"the grid is (nearly) empty: {n_inside} of {n_particles} particle-frames "
+            f"({100.0 * n_inside / n_particles:.2g} %) have their centre inside {grid.describe()}; "
+            + ("check --axis and --range" if coords in ("r", "rz") else "check --range"))
+    empty_nodes = int((fields_table["n"] <= 0).sum()) if "n" in fields_table else 0
+    if n_particles and empty_nodes > 0.5 * grid.n_nodes:
+        warnings.append(f"{empty_nodes} of {grid.n_nodes} nodes never held a particle's kernel weight")
+
+    elapsed = time.perf_counter() - t_start
+    inputs = [{"path": p, "role": "atoms", "format": f, "bytes": os.path.getsize(p), "sha256": _sha256(p)}
+              for p, f in zip(paths, formats)]
+    inputs += [{"path": p, "role": "contacts", "format": f, "bytes": os.path.getsize(p), "sha256": _sha256(p)}
+               for p, f in zip(contact_paths, contact_formats)]
+    steps_arr = np.asarray(steps)
+    meta = {
+        "tool": "granflow cg (postproc.cg.coarse_grain)",
+        "inputs": inputs,
+        "frames": {
+            "selection": select.describe(),
+            "count": n_frames,
+            "first_step": steps[0],
+            "last_step": steps[-1],
+            "step_intervals": sorted({int(d) for d in np.diff(steps_arr)}) if n_frames > 1 else [],
+            "first_time": times[0] if len(times) == n_frames else None,
+            "last_time": times[-1] if len(times) == n_frames else None,
+            "truncated": truncated,
+            "particle_frames": n_particles,
+            "particle_frames_in_grid": n_inside,
+        },
+        "coordinates": {"choice": coords, "names": list(coordinates.names),
+                        "components": list(getattr(coordinates, "components", ("x", "y", "z"))),
+                        "axis": None if axis is None else list(axis), "axis_source": axis_source},
+        "kernel": {"name": kernel, "width": width, "cutoff": cutoff,
+                   "width_means": {"gaussian": "standard deviation", "lucy": "range (zero beyond)",
+                                   "heaviside": "unused: bins are the grid cells"}[kernel]},
+        "grid": {"names": list(grid.names), "ranges": [list(r) for r in grid.ranges],
+                 "spacing": list(grid.spacing), "nodes": list(grid.counts), "n_nodes": grid.n_nodes},
+        "volume_fraction": volume,
+        "density": density,
+        "species": None if species is None else list(species),
+        "fields": [c for c in fields_table.columns if not c.endswith("_se")],
+        "omitted_fields": accumulator.omitted_fields,
+        "standard_errors": f"std over {min(n_blocks, n_frames)} blocks of consecutive frames / sqrt(blocks)",
+        "stress_sign": "compressive positive",
+        "units": (f"as the dump's: LAMMPS units {units}" if units else
+                  "as the dump's (the dump does not name its units; dump_modify units yes would)"),
+        "warnings": warnings,
+        "elapsed_s": round(elapsed, 3),
+        "particle_frames_per_s": round(n_particles / elapsed, 1) if elapsed > 0 else None,
+    }
+    return CGResult(fields=fields_table, meta=meta, grid=grid, warnings=warnings)
+
+
+def _tidy(table: pd.DataFrame, names: Sequence[str]) -> pd.DataFrame:
+    """Node coordinates first (named as the coordinates), velocity as ``v_<c>``, no bin bounds."""
+    drop = [f"{n}_{s}" for n in names for s in ("lo", "hi")]
+    table = table.drop(columns=[c for c in drop if c in table.columns])
+    rename = {c: "v_" + c[2:] for c in table.columns if c.startswith("u_")}
+    table = table.rename(columns=rename)
+    ordered = list(names) + [c for c in table.columns if c not in names]
+    return table[ordered].reset_index(drop=True)
+
+
+# --------------------------------------------------------------------------- output
+
+
+def write_result(result: CGResult, out_dir: str | os.PathLike) -> dict[str, Path]:
+    """Write ``fields.csv``, ``meta.json`` and ``fields.vtr`` into ``out_dir``.
+
+    ``fields.vtr`` is a VTK rectilinear grid (written by ``pyevtk``) with one
+    point array per column of the table; resolved coordinates map to the VTK
+    axes x, y, z by name (``r`` to x), unresolved ones are a single layer at
+    zero.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {"fields": out / "fields.csv", "meta": out / "meta.json", "vtk": out / "fields.vtr"}
+    result.fields.to_csv(paths["fields"], index=False)
+    paths["vtk"] = _write_vtk(result, out / "fields")
+    meta = dict(result.meta)
+    meta["outputs"] = {k: p.name for k, p in paths.items()}
+    paths["meta"].write_text(json.dumps(meta, indent=2, default=_json_default) + "\n")
+    return paths
+
+
+def _json_default(value):
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (np.floating,)):
+        return float(value)
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"cannot write {type(value).__name__} to JSON")
+
+
+def _write_vtk(result: CGResult, stem: Path) -> Path:
+    from pyevtk.hl import gridToVTK
+
+    grid = result.grid
+    nodes = grid.nodes()
+    vtk_axes = {"x": 0, "y": 1, "z": 2, "r": 0}
+    axes = [np.zeros(1), np.zeros(1), np.zeros(1)]
+    placement = []
+    for name, node in zip(grid.names, nodes):
+        k = vtk_axes[name]
+        axes[k] = np.ascontiguousarray(node, dtype=float)
+        placement.append(k)
+    shape3 = [len(a) for a in axes]
+    data = {}
+    for column in result.fields.columns:
+        if column in grid.names:
+            continue
+        values = result.fields[column].to_numpy(dtype=float).reshape(grid.shape)
+        # move the resolved axes to their VTK positions, singleton elsewhere
+        full = np.moveaxis(values.reshape(grid.shape + (1,) * (3 - len(grid.shape))),
+                           list(range(len(grid.shape))), placement)
+        data[column] = np.asfortranarray(full.reshape(shape3))
+    return Path(gridToVTK(str(stem), *axes, pointData=data))

@@ -1,0 +1,156 @@
+"""The ``granflow cg`` command: coarse-grain LAMMPS dumps into continuum fields.
+
+Also runnable without granflow's CLI as ``python -m postproc.cg_cli``. The work
+is done by :func:`postproc.cg.coarse_grain`; this module parses and reports.
+"""
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+import textwrap
+from pathlib import Path
+
+from .cg import (COORDINATES, DEFAULT_BLOCKS, DEFAULT_MAX_NODES, GAUSSIAN_CUTOFF, KERNELS, CGInputError,
+                 coarse_grain, parse_numbers, parse_ranges, write_result)
+
+DESCRIPTION = """\
+Coarse-grain LAMMPS `dump custom` files (text, gzipped text or binary, told
+apart by their content; columns in any order) into time-averaged continuum
+fields on a regular grid: volume fraction, mass density, velocity, kinetic
+stress, and with `dump local` contacts the contact stress, each with its
+standard error over blocks of frames. Writes DIR/fields.csv (one row per
+node), DIR/meta.json (inputs with SHA-256, frames, choices, units, warnings)
+and DIR/fields.vtr (open it in ParaView)."""
+
+EPILOG = f"""\
+The dump needs x y z (or xu yu zu, xs ys zs), vx vy vz, radius or diameter,
+and mass (or --density); id for --contacts, type for --species. A value
+that starts with a minus sign needs '=': --range=-20:50, --axis=-3,4.
+
+coordinates: x y z xy xz yz xyz resolve those axes and integrate over the rest
+  of the box; r is the distance from the vertical axis --axis X0,Y0 (default
+  the box centre), rz adds the height. Components are x y z, or r t z.
+kernels: gaussian (--width = standard deviation, cut at --cutoff, default
+  {GAUSSIAN_CUTOFF:g} widths), lucy (--width = its range), heaviside (bins of
+  the grid spacing; --exact-volume splits each sphere exactly over slabs).
+
+example: a hopper with its axis at x = y = 0.05 m, steps 100000 to 200000:
+  granflow cg dump.hopper.bin --coords rz --axis 0.05,0.05 \\
+      --kernel gaussian --width 0.002 --spacing 0.002 \\
+      --contacts dump.contacts --frames 100000:200000 --out cg_hopper
+"""
+
+
+def build_parser(prog: str = "granflow cg", add_help: bool = True) -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog=prog, description=DESCRIPTION, epilog=EPILOG, add_help=add_help,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_arguments(ap)
+    return ap
+
+
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    ap.add_argument("dumps", nargs="+", metavar="DUMP", help="dump custom files, in time order")
+    ap.add_argument("--coords", required=True, choices=COORDINATES, help="coordinates resolved")
+    ap.add_argument("--axis", metavar="X0,Y0", help="vertical axis of r and rz (default: box centre)")
+    ap.add_argument("--kernel", default="gaussian", choices=KERNELS, help="coarse-graining function (default gaussian)")
+    ap.add_argument("--width", type=float, metavar="W", help="kernel width, dump length units (gaussian, lucy)")
+    ap.add_argument("--cutoff", type=float, metavar="C",
+                    help=f"gaussian truncation radius (default {GAUSSIAN_CUTOFF:g} x width)")
+    ap.add_argument("--spacing", required=True, metavar="H[,H2,...]",
+                    help="node spacing: one for all coordinates or one per coordinate")
+    ap.add_argument("--range", dest="ranges", metavar="LO:HI[,LO:HI,...]",
+                    help="grid range per coordinate (default: the box; r from 0 to the nearest side wall)")
+    ap.add_argument("--contacts", nargs="+", default=[], metavar="LOCAL_DUMP",
+                    help="dump local files of compute pair/local + property/local (same steps as the atoms)")
+    ap.add_argument("--contact-columns", metavar="ROLE=COLUMN,...",
+                    help="contact column roles when the header does not name them, e.g. "
+                         "id1=c_ids[1],id2=c_ids[2],dx=c_pl[1],dy=c_pl[2],dz=c_pl[3],fx=c_pl[4],fy=c_pl[5],fz=c_pl[6]")
+    ap.add_argument("--species", nargs="?", const="auto", metavar="T1,T2,...",
+                    help="per-type partial fields (types of the first frame, or the ids given)")
+    ap.add_argument("--frames", metavar="START:STOP[:EVERY]", help="timesteps to use, STOP included (default all)")
+    ap.add_argument("--density", type=float, metavar="RHO", help="particle density, when the dump has no mass")
+    ap.add_argument("--exact-volume", action="store_true",
+                    help="heaviside along one axis: volume fraction from each sphere's exact split over the bins")
+    ap.add_argument("--blocks", type=int, default=DEFAULT_BLOCKS, metavar="N",
+                    help=f"blocks of frames for standard errors (default {DEFAULT_BLOCKS})")
+    ap.add_argument("--max-nodes", type=int, default=DEFAULT_MAX_NODES, metavar="N",
+                    help=f"refuse grids with more nodes (default {DEFAULT_MAX_NODES})")
+    ap.add_argument("--allow-truncated", action="store_true",
+                    help="on a truncated dump keep the fields of the complete frames")
+    ap.add_argument("--overwrite", action="store_true", help="replace the outputs already in DIR")
+    ap.add_argument("--quiet", action="store_true", help="no progress line")
+    ap.add_argument("--out", required=True, metavar="DIR", help="output directory")
+
+
+def _roles(text: str | None) -> dict[str, str] | None:
+    if not text:
+        return None
+    roles = {}
+    for part in text.split(","):
+        role, sep, column = part.partition("=")
+        if not sep or not role.strip() or not column.strip():
+            raise CGInputError(f"--contact-columns {text!r}: {part!r} is not ROLE=COLUMN")
+        roles[role.strip()] = column.strip()
+    return roles
+
+
+def _species(text: str | None):
+    if text is None or text == "auto":
+        return text
+    try:
+        ids = [int(t) for t in text.split(",")]
+    except ValueError:
+        raise CGInputError(f"--species {text!r} is not a comma-separated list of type ids") from None
+    return ids
+
+
+def run(args: argparse.Namespace, command: str | None = None) -> int:
+    """Run a parsed ``granflow cg``; 0 on success, 2 when the input is refused.
+
+    ``command`` (the command line) is recorded in ``meta.json``.
+    """
+    out = Path(args.out)
+    try:
+        if (out / "fields.csv").exists() and not args.overwrite:
+            raise CGInputError(f"--out {out} already holds fields.csv from an earlier run; choose another "
+                               f"--out or pass --overwrite")
+        axis = None
+        if args.axis is not None:
+            axis = parse_numbers(args.axis, "--axis")
+            if len(axis) != 2:
+                raise CGInputError(f"--axis {args.axis!r} needs two numbers X0,Y0")
+        result = coarse_grain(
+            args.dumps, args.coords, spacing=parse_numbers(args.spacing, "--spacing"), axis=axis,
+            kernel=args.kernel, width=args.width, cutoff=args.cutoff, ranges=parse_ranges(args.ranges),
+            contacts=args.contacts, contact_roles=_roles(args.contact_columns), species=_species(args.species),
+            frames=args.frames, density=args.density, volume="exact" if args.exact_volume else "centre",
+            n_blocks=args.blocks, max_nodes=args.max_nodes, allow_truncated=args.allow_truncated,
+            progress=None if args.quiet else sys.stderr,
+        )
+    except CGInputError as exc:
+        print(f"granflow cg: refused: {exc}", file=sys.stderr)
+        return 2
+    result.meta["command"] = command
+    paths = write_result(result, out)
+    meta = result.meta
+    frames = meta["frames"]
+    print(f"granflow cg: {frames['count']} frames (steps {frames['first_step']}..{frames['last_step']}), "
+          f"{frames['particle_frames']} particle-frames, {result.grid.describe()}")
+    print(f"  kernel {meta['kernel']['name']}"
+          + (f" width {meta['kernel']['width']:g}" if meta['kernel']['width'] else "")
+          + f"; {meta['elapsed_s']:.1f} s, {meta['particle_frames_per_s'] / 1e6:.2f} M particle-frames/s")
+    for w in result.warnings:
+        print(textwrap.fill(f"warning: {w}", width=100, subsequent_indent="  "), file=sys.stderr)
+    print("  wrote " + ", ".join(str(p) for p in paths.values()))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    prog = "python -m postproc.cg_cli"
+    return run(build_parser(prog=prog).parse_args(argv), command=" ".join([prog, *map(shlex.quote, argv)]))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

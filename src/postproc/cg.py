@@ -620,8 +620,9 @@ def coarse_grain(
     bar = _Progress(total_frames, progress)
 
     truncated = None
-    n_frames = n_particles = n_inside = 0
-    steps: list[int] = []
+    n_frames = n_particles = n_inside = n_timed = 0
+    steps: list[int] = []  # first and last only: nothing grows with the number of frames
+    intervals: set[int] = set()
     times: list[float] = []
     units = first.units
 
@@ -660,9 +661,15 @@ def coarse_grain(
         n_particles += len(frame.mass)
         if len(frame.mass):
             n_inside += int(grid.contains(coordinates.points(frame)).sum())
-        steps.append(int(frame.timestep))
+        if steps:
+            if len(intervals) < 16:
+                intervals.add(int(frame.timestep) - steps[-1])
+            steps[1:] = [int(frame.timestep)]
+        else:
+            steps.append(int(frame.timestep))
         if frame.time is not None:
-            times.append(float(frame.time))
+            n_timed += 1
+            times[min(len(times), 1):] = [float(frame.time)]
         bar.update(n_frames, n_particles, frame.timestep)
     bar.update(n_frames, n_particles, steps[-1] if steps else 0, final=True)
     if n_frames == 0:
@@ -688,7 +695,6 @@ def coarse_grain(
               for p, f in zip(paths, formats)]
     inputs += [{"path": p, "role": "contacts", "format": f, "bytes": os.path.getsize(p), "sha256": _sha256(p)}
                for p, f in zip(contact_paths, contact_formats)]
-    steps_arr = np.asarray(steps)
     meta = {
         "tool": "granflow cg (postproc.cg.coarse_grain)",
         "inputs": inputs,
@@ -697,9 +703,9 @@ def coarse_grain(
             "count": n_frames,
             "first_step": steps[0],
             "last_step": steps[-1],
-            "step_intervals": sorted({int(d) for d in np.diff(steps_arr)}) if n_frames > 1 else [],
-            "first_time": times[0] if len(times) == n_frames else None,
-            "last_time": times[-1] if len(times) == n_frames else None,
+            "step_intervals": sorted(intervals),
+            "first_time": times[0] if n_timed == n_frames else None,
+            "last_time": times[-1] if n_timed == n_frames else None,
             "truncated": truncated,
             "particle_frames": n_particles,
             "particle_frames_in_grid": n_inside,

@@ -421,3 +421,16 @@ def test_stock_lammps_funnel_against_independent_counts(tmp_path):
     trace = box[["sigmac_xx", "sigmac_yy", "sigmac_zz"]].sum(axis=1).iloc[0]
     assert trace == pytest.approx(work / frames / volume, rel=1e-9)
     assert box["pc"].iloc[0] > 0  # compressive
+
+
+def test_exact_volume_splits_spheres_over_slabs(tmp_path):
+    """One sphere centred on a bin edge: half its volume in each slab (centre counting puts all in one)."""
+    pos = np.array([[1.0, 1.0, 1.0]])
+    write_text(tmp_path / "one.dump", [(0, None, particles(pos, radius=0.5))], COLUMNS, [0, 2, 0, 2, 0, 2])
+    half = 0.5 * (4.0 / 3.0 * np.pi * 0.125) / (2.0 * 2.0 * 1.0)
+    assert cg(tmp_path / "one.dump", "--coords", "z", "--kernel", "heaviside", "--spacing", 1,
+              "--exact-volume", "--out", tmp_path / "exact") == 0
+    np.testing.assert_allclose(fields(tmp_path / "exact")["phi"], [half, half], rtol=1e-12)
+    assert cg(tmp_path / "one.dump", "--coords", "z", "--kernel", "heaviside", "--spacing", 1,
+              "--out", tmp_path / "centre") == 0
+    np.testing.assert_allclose(fields(tmp_path / "centre")["phi"], [0.0, 2 * half], rtol=1e-12)

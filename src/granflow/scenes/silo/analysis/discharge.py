@@ -5,7 +5,8 @@ Pure functions from the per-case inputs to the paper's observables:
 * discharge rates from the thermo series (figure 2): the outflow
   :math:`W_f(t)` from the deleted mass and the independent estimate
   :math:`W_r(t)` from the falling free surface; the steady window and the
-  steady rate with its standard error;
+  steady rate with its standard error (thin wrappers that name the thermo
+  columns around :mod:`postproc.series`, which works on any series);
 * the Beverloo law :math:`W = C\\rho_b\\sqrt g\\,(D - k d)^{5/2}` over orifice
   sizes (and its linearisation :math:`W^{2/5} \\propto D - kd`);
 * the self-similar orifice profiles :math:`\\phi(r)/\\phi(0)`,
@@ -35,11 +36,13 @@ Units are SI throughout.
 from __future__ import annotations
 
 import re
-from collections import deque
 
 import numpy as np
 import pandas as pd
 from scipy.optimize import curve_fit
+
+from postproc.series import SteadyWindow, cumulative_rate, linear_fit, steady_rate, window_masks  # noqa: F401
+from postproc.series import steady_window as series_steady_window
 
 #: Fraction of the orifice radius over which the velocity profile is compared
 #: with sqrt(1 - (r/R)^2) (see :func:`orifice_profiles`).
@@ -54,74 +57,6 @@ def _column(df: pd.DataFrame, name: str, default: float = np.nan) -> np.ndarray:
     if name in df:
         return pd.to_numeric(df[name], errors="coerce").to_numpy(dtype=float)
     return np.full(len(df), default, dtype=float)
-
-
-def linear_fit(x, y) -> tuple[float, float, float, float]:
-    """Ordinary least-squares line :math:`y = a x + b` with the slope's standard error.
-
-    .. math:: \\sigma_a^2 = \\frac{\\sum_i r_i^2/(n-2)}{\\sum_i (x_i - \\bar x)^2}
-
-    Parameters
-    ----------
-    x, y : array_like
-        Finite samples (non-finite pairs are dropped).
-
-    Returns
-    -------
-    slope, intercept, slope_se, x_mean : float
-        NaN when fewer than two points or no spread in ``x``; ``slope_se`` is
-        NaN with two points.
-    """
-    x = np.asarray(x, dtype=float)
-    y = np.asarray(y, dtype=float)
-    ok = np.isfinite(x) & np.isfinite(y)
-    x, y = x[ok], y[ok]
-    n = len(x)
-    if n < 2 or np.ptp(x) == 0:
-        return np.nan, np.nan, np.nan, np.nan
-    xm = x.mean()
-    sxx = np.sum((x - xm) ** 2)
-    slope = float(np.sum((x - xm) * (y - y.mean())) / sxx)
-    intercept = float(y.mean() - slope * xm)
-    if n < 3:
-        return slope, intercept, np.nan, float(xm)
-    resid = y - (slope * x + intercept)
-    return slope, intercept, float(np.sqrt(np.sum(resid ** 2) / (n - 2) / sxx)), float(xm)
-
-
-def cumulative_rate(t, m) -> tuple[float, float]:
-    """Rate of a cumulative counter (deleted or inserted mass) and its standard error.
-
-    The rate is the least-squares slope :math:`\\hat W = \\sum_i c_i m_i`,
-    :math:`c_i = (t_i - \\bar t)/\\sum_j (t_j - \\bar t)^2`.  A cumulative
-    counter is a random walk with drift, not a line plus independent noise:
-    its increments :math:`\\epsilon_j = m_j - m_{j-1}` are independent with
-    variance :math:`D\\,\\Delta t_j`, so
-
-    .. math:: \\sigma_{\\hat W}^2 = \\hat D \\sum_j \\Delta t_j \\Big(\\sum_{i \\ge j} c_i\\Big)^2,
-        \\qquad \\hat D = \\frac{n-1}{n-2}\\,\\frac{\\sum_j (\\epsilon_j - \\hat W \\Delta t_j)^2}{\\sum_j \\Delta t_j}
-
-    (about :math:`\\tfrac65 D/T` for a window of length T).  The ordinary
-    residual-based error would be far too small for such a series.
-
-    Returns
-    -------
-    W, W_se : float
-        NaN with fewer than three finite samples.
-    """
-    t = np.asarray(t, dtype=float)
-    m = np.asarray(m, dtype=float)
-    ok = np.isfinite(t) & np.isfinite(m)
-    t, m = t[ok], m[ok]
-    n = len(t)
-    if n < 3 or np.ptp(t) == 0:
-        return np.nan, np.nan
-    c = (t - t.mean()) / np.sum((t - t.mean()) ** 2)
-    W = float(np.sum(c * m))
-    dt, eps = np.diff(t), np.diff(m)
-    D = np.sum((eps - W * dt) ** 2) / np.sum(dt) * (n - 1) / (n - 2)
-    tail = np.cumsum(c[::-1])[::-1][1:]  # sum over i >= j of c_i, for j = 1 .. n-1
-    return W, float(np.sqrt(D * np.sum(dt * tail ** 2)))
 
 
 def species_ids(fields: pd.DataFrame, prefix: str = "pk") -> list[int]:
@@ -159,8 +94,10 @@ def flow_rates(thermo: pd.DataFrame, rho_p: float, phi_b: float, R_c: float, win
     """Discharge rates :math:`W_f(t)` and :math:`W_r(t)` over consecutive time windows.
 
     The thermo series is cut into non-overlapping windows of length ``window``
-    from its first sample (a trailing partial window is dropped; a series
-    shorter than one window gives one short window).  In each window the rates are least-squares slopes
+    from its first sample (:func:`postproc.series.window_edges`: a trailing
+    partial window is dropped; a series shorter than one window gives one
+    short window), as :func:`postproc.series.rate_series` does for any
+    cumulative series.  In each window the rates are least-squares slopes
     (:func:`linear_fit`):
 
     .. math:: W_f = \\frac{d m_{del}}{dt}
@@ -221,16 +158,11 @@ def flow_rates(thermo: pd.DataFrame, rho_p: float, phi_b: float, R_c: float, win
     m_del = _column(thermo, "v_mdel")[order]
     m_ins = _column(thermo, "v_mins", 0.0)[order]
     z_s = _column(thermo, "v_zs")[order]
-    ok = np.isfinite(t)
-    if ok.sum() < 3:
+    if np.isfinite(t).sum() < 3:
         return pd.DataFrame(columns=columns)
-    t0, t1 = t[ok][0], t[ok][-1]
-    n_win = int(np.floor((t1 - t0) / window * (1 + 1e-12))) or 1
     area_mass = rho_p * phi_b * np.pi * R_c ** 2
     rows = []
-    for k in range(n_win):
-        lo, hi = t0 + k * window, t0 + (k + 1) * window
-        sel = ok & (t >= lo) & ((t < hi) if k < n_win - 1 else (t <= hi))
+    for lo, hi, sel in window_masks(t, window):
         if sel.sum() < 3:
             continue
         w_f, w_f_se = cumulative_rate(t[sel], m_del[sel])
@@ -244,81 +176,30 @@ def flow_rates(thermo: pd.DataFrame, rho_p: float, phi_b: float, R_c: float, win
     return pd.DataFrame(rows, columns=columns)
 
 
-def _running_median(w: np.ndarray, usable: np.ndarray, width: int) -> np.ndarray:
-    """Centred running median over ``width`` windows within each run of usable windows (NaN elsewhere).
+def discharge_steady_window(t, W_f, rel_tol: float = 0.1, min_windows: int = 3, window: float | None = None,
+                            fill_height=None, min_fill_height: float | None = None, smooth: int = 5,
+                            startup: str | float | None = "auto", coarsen: bool = False) -> SteadyWindow:
+    """The discharge window in which the flow rate is steady, as a :class:`postproc.series.SteadyWindow`.
 
-    Near the ends of a run the window shrinks symmetrically (the end values
-    stay as they are), so a monotone ramp at the start is not pulled inwards.
-    """
-    out = np.full(len(w), np.nan)
-    half = max(int(width), 1) // 2
-    edges = np.flatnonzero(np.diff(np.r_[0, usable.astype(int), 0]))
-    for a, b in zip(edges[::2], edges[1::2]):
-        for k in range(a, b):
-            h = min(half, k - a, b - 1 - k)
-            out[k] = np.median(w[k - h:k + h + 1])
-    return out
+    :func:`postproc.series.steady_window` on the windowed rates (rows of
+    :func:`flow_rates`), with the silo's own exclusions: windows whose fill
+    height is below ``min_fill_height`` (when both are given) cannot be
+    steady (the silo runs low), and a median rate :math:`\\le 0` is no outflow
+    (a clog).  In short: a running median over ``smooth`` windows, the
+    start-up rule ``startup`` (default ``"auto"``: nothing before the
+    smoothed rate first comes within ``rel_tol`` of the median of the later
+    rates), then the longest run of smoothed rates within a band of relative
+    half-width :math:`\\epsilon` about a common level,
 
+    .. math:: \\frac{\\max_k \\tilde W_k}{1+\\epsilon} \\le \\frac{\\min_k \\tilde W_k}{1-\\epsilon},
 
-def _longest_band_run(w: np.ndarray, rel_tol: float) -> tuple[int, int]:
-    """Longest run ``w[i:j+1]`` (finite) whose values fit in a band of relative half-width ``rel_tol``.
+    which excludes the end of the discharge too.  The start-up rule applied
+    is stated in ``rule``; ``reason`` quotes the median of the raw rates in
+    the run and their largest relative deviation from it.
 
-    Values fit in :math:`[(1-\\epsilon)W^*, (1+\\epsilon)W^*]` for some level
-    :math:`W^*` iff :math:`\\max/(1+\\epsilon) \\le \\min/(1-\\epsilon)`; the
-    condition only fails more as a run grows, so two pointers with monotone
-    queues of the running max and min find the longest run in O(n).  Among
-    runs of equal length the one with the smallest max/min wins.  Returns
-    ``(-1, -1)`` when no value is positive.
-    """
-    best, best_key = (-1, -1), None
-    hi, lo = deque(), deque()
-    i = 0
-    for j, v in enumerate(w):
-        if not (np.isfinite(v) and v > 0):
-            hi.clear()
-            lo.clear()
-            i = j + 1
-            continue
-        while hi and w[hi[-1]] <= v:
-            hi.pop()
-        hi.append(j)
-        while lo and w[lo[-1]] >= v:
-            lo.pop()
-        lo.append(j)
-        while w[hi[0]] * (1 - rel_tol) > w[lo[0]] * (1 + rel_tol):
-            i += 1
-            if hi[0] < i:
-                hi.popleft()
-            if lo[0] < i:
-                lo.popleft()
-        key = (j - i + 1, -w[hi[0]] / w[lo[0]])
-        if best_key is None or key > best_key:
-            best, best_key = (i, j), key
-    return best
-
-
-def steady_window(t, W_f, rel_tol: float = 0.1, min_windows: int = 3, window: float | None = None,
-                  fill_height=None, min_fill_height: float | None = None,
-                  smooth: int = 5) -> tuple[float, float, str]:
-    """The discharge window in which the flow rate is steady.
-
-    The windowed rates (rows of :func:`flow_rates`) are first smoothed by a
-    running median over ``smooth`` windows, which removes isolated outliers
-    (over thousands of windows a few single rates always stray out of any
-    band) but keeps the step edges of the start-up and the run-out sharp.
-    The steady window is then the longest run of consecutive smoothed rates
-    that fit within a band of relative half-width :math:`\\epsilon` about a
-    common level,
-
-    .. math:: (1-\\epsilon) W^* \\le \\tilde W_k \\le (1+\\epsilon) W^* \\quad \\forall k
-        \\iff \\frac{\\max_k \\tilde W_k}{1+\\epsilon} \\le \\frac{\\min_k \\tilde W_k}{1-\\epsilon},
-
-    which excludes the start-up transient (rates still rising) and the end of
-    the discharge (rates falling as the silo runs low).  Windows whose fill
-    height is below ``min_fill_height`` (when both are given) cannot belong to
-    the run.  Among runs of equal length the flattest wins.  The reason
-    quotes the median of the raw rates in the run and their largest relative
-    deviation from it.
+    ``coarsen`` is off by default to keep the silo's historic windows on its
+    thermo rates; switch it on for noisy rates (from frames, or short
+    windows), whose scatter would otherwise make the run a random stretch.
 
     Parameters
     ----------
@@ -341,13 +222,11 @@ def steady_window(t, W_f, rel_tol: float = 0.1, min_windows: int = 3, window: fl
         Fill height below which the silo counts as running low, m.
     smooth : int
         Width of the running median, windows (1: no smoothing).
-
-    Returns
-    -------
-    t_start, t_end : float
-        Bounds of the steady window, s; NaN when there is none.
-    reason : str
-        One sentence with the numbers behind the verdict.
+    startup : "auto", float or None
+        Start-up rule of :func:`postproc.series.steady_window` (a float is a
+        time in s before which no window may start; None excludes nothing).
+    coarsen : bool
+        Average blocks of windows when their scatter is too large for the band.
     """
     t = np.asarray(t, dtype=float)
     w = np.asarray(W_f, dtype=float)
@@ -355,7 +234,6 @@ def steady_window(t, W_f, rel_tol: float = 0.1, min_windows: int = 3, window: fl
         raise ValueError(f"t and W_f must be 1-D arrays of equal length, got {t.shape} and {w.shape}")
     if not 0 < rel_tol < 1 or int(min_windows) < 1:
         raise ValueError("rel_tol must lie in (0, 1) and min_windows be at least 1")
-    min_windows = int(min_windows)
     usable = np.isfinite(t) & np.isfinite(w)
     note = ""
     if fill_height is not None and min_fill_height is not None:
@@ -363,40 +241,50 @@ def steady_window(t, W_f, rel_tol: float = 0.1, min_windows: int = 3, window: fl
         if (usable & low).any():
             note = f"; {int((usable & low).sum())} windows excluded by fill height < {min_fill_height:.4g} m"
         usable &= ~low
-    order = np.argsort(t, kind="stable")
-    t, w, usable = t[order], w[order], usable[order]
     nan = float("nan")
-    if usable.sum() < min_windows:
-        return nan, nan, f"only {int(usable.sum())} usable windows, fewer than {min_windows}{note}"
+    if usable.sum() < int(min_windows):
+        return SteadyWindow(nan, nan, nan, 0, nan, "start-up not assessed",
+                            f"only {int(usable.sum())} usable windows, fewer than {int(min_windows)}{note}")
     if np.median(w[usable]) <= 0:
-        return nan, nan, f"no outflow: median W_f = {np.median(w[usable]):.3g} kg/s (clogged?){note}"
-    smoothed = _running_median(w, usable, smooth)
-    i, j = _longest_band_run(smoothed, rel_tol)
-    smoothing = f", after a running median over {smooth} windows" if smooth > 1 else ""
-    if i < 0 or j - i + 1 < min_windows:
-        return nan, nan, (f"no {min_windows} consecutive windows fit within ±{rel_tol:.0%} of a common level"
-                          f"{smoothing} (W_f from {np.min(w[usable]):.3g} to {np.max(w[usable]):.3g} kg/s){note}")
-    med = float(np.median(w[i:j + 1]))
-    dev = float(np.max(np.abs(w[i:j + 1] - med)) / med)
-    half = 0.5 * window if window else 0.0
-    t_start, t_end = float(t[i] - half), float(t[j] + half)
-    return t_start, t_end, (f"{j - i + 1} consecutive windows from t = {t_start:.4g} s to {t_end:.4g} s fit within "
-                            f"±{rel_tol:.0%} of a common level{smoothing}; median W_f = {med:.4g} kg/s, raw "
-                            f"rates within ±{dev:.1%} of it{note}")
+        return SteadyWindow(nan, nan, nan, 0, nan, "start-up not assessed",
+                            f"no outflow: median W_f = {np.median(w[usable]):.3g} kg/s (clogged?){note}")
+    sw = series_steady_window(t, np.where(usable, w, np.nan), rel_tol=rel_tol, min_windows=min_windows,
+                              window=window, startup=startup, smooth=smooth, coarsen=coarsen, label="W_f",
+                              unit="kg/s", time_unit="s", noun="windows")
+    return SteadyWindow(sw.t_start, sw.t_end, sw.mean, sw.n_windows, sw.startup_end, sw.rule, sw.reason + note)
+
+
+def steady_window(t, W_f, rel_tol: float = 0.1, min_windows: int = 3, window: float | None = None,
+                  fill_height=None, min_fill_height: float | None = None, smooth: int = 5,
+                  startup: str | float | None = "auto", coarsen: bool = False) -> tuple[float, float, str]:
+    """The steady discharge window as ``(t_start, t_end, reason)``.
+
+    :func:`discharge_steady_window` (same parameters) with the start-up rule
+    appended to the reason, so that whatever records the reason records the
+    rule too: ``"<verdict>; <start-up rule>"``.
+
+    Returns
+    -------
+    t_start, t_end : float
+        Bounds of the steady window, s; NaN when there is none.
+    reason : str
+        The verdict with its numbers, then the start-up rule applied.
+    """
+    sw = discharge_steady_window(t, W_f, rel_tol=rel_tol, min_windows=min_windows, window=window,
+                                 fill_height=fill_height, min_fill_height=min_fill_height, smooth=smooth,
+                                 startup=startup, coarsen=coarsen)
+    return sw.t_start, sw.t_end, f"{sw.reason}; {sw.rule}"
 
 
 def steady_flow_rate(thermo: pd.DataFrame, t_start: float, t_end: float, n_blocks: int = 4) -> tuple[float, float]:
     """Steady discharge rate from the deleted mass over the steady window.
 
-    The rate is the least-squares slope of :math:`m_{del}(t)` over
-    :math:`t_{start} \\le t \\le t_{end}`; its standard error is the block
-    standard error of the slopes in ``n_blocks`` equal sub-windows,
+    :func:`postproc.series.steady_rate` of ``v_mdel`` against ``Time``: the
+    least-squares slope over :math:`t_{start} \\le t \\le t_{end}` and the
+    block standard error of the slopes in ``n_blocks`` equal sub-windows,
 
     .. math:: W = \\frac{d m_{del}}{dt}, \\qquad
-        \\mathrm{se}(W) = \\frac{\\operatorname{std}_{ddof=1}(W_b)}{\\sqrt{n_b}},
-
-    which is honest about correlated fluctuations longer than the sampling
-    interval but shorter than a sub-window.
+        \\mathrm{se}(W) = \\frac{\\operatorname{std}_{ddof=1}(W_b)}{\\sqrt{n_b}} .
 
     Parameters
     ----------
@@ -412,24 +300,14 @@ def steady_flow_rate(thermo: pd.DataFrame, t_start: float, t_end: float, n_block
     -------
     W, W_se : float
         kg/s.
+
+    Raises
+    ------
+    ValueError
+        Without a steady window ("no steady window") or with fewer than 3
+        thermo samples in it.
     """
-    if not (np.isfinite(t_start) and np.isfinite(t_end) and t_end > t_start):
-        raise ValueError(f"no steady window: t_start = {t_start}, t_end = {t_end}")
-    t, m = _column(thermo, "Time"), _column(thermo, "v_mdel")
-    sel = np.isfinite(t) & np.isfinite(m) & (t >= t_start) & (t <= t_end)
-    t, m = t[sel], m[sel]
-    if len(t) < 3:
-        raise ValueError(f"only {len(t)} thermo samples between t = {t_start:.4g} and {t_end:.4g} s")
-    W = linear_fit(t, m)[0]
-    n_blocks = min(int(n_blocks), len(t) // 3)
-    if n_blocks < 2:
-        return W, np.nan
-    edges = np.linspace(t_start, t_end, n_blocks + 1)
-    slopes = [linear_fit(t[(t >= a) & (t <= b)], m[(t >= a) & (t <= b)])[0] for a, b in zip(edges[:-1], edges[1:])]
-    slopes = np.asarray(slopes)
-    slopes = slopes[np.isfinite(slopes)]
-    se = float(np.std(slopes, ddof=1) / np.sqrt(len(slopes))) if len(slopes) >= 2 else np.nan
-    return W, se
+    return steady_rate(_column(thermo, "Time"), _column(thermo, "v_mdel"), t_start, t_end, n_blocks=n_blocks)
 
 
 # --------------------------------------------------------------------------- Beverloo

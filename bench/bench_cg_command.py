@@ -64,6 +64,7 @@ def main() -> int:
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--numpy-frames", type=int, default=4, help="frames for the (slow) numpy path")
     ap.add_argument("--species", action="store_true", help="add the per-type partials")
+    ap.add_argument("--spacing", type=float, default=0.5, help="node spacing (the width is 1)")
     args = ap.parse_args()
 
     import numba
@@ -76,7 +77,7 @@ def main() -> int:
         write_dump(dump, args.particles, args.frames)
         small = Path(tmp) / "few.bin"
         write_dump(small, args.particles, args.numpy_frames)
-        common = dict(coords="rz", axis=(23.0, 21.0), kernel="gaussian", width=1.0, spacing=0.5,
+        common = dict(coords="rz", axis=(23.0, 21.0), kernel="gaussian", width=1.0, spacing=args.spacing,
                       ranges=[(0.0, 20.0), (0.0, 60.0)], species="auto" if args.species else None)
         # compile once outside the timings
         coarse_grain([small], **common, frames="0:1000")

@@ -65,6 +65,7 @@ import math
 import os
 import sys
 import time
+import warnings as _warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Iterator, Sequence
@@ -75,7 +76,7 @@ import pandas as pd
 from .contacts import ContactFrame, read_contact_dump
 from .coordinates import CartesianCoordinates, RCoordinates, RZCoordinates
 from .dump import DumpError, dump_format, missing_particle_columns, read_dumps
-from .fields import FieldAccumulator
+from .fields import FieldAccumulator, SparseGridWarning
 from .frame import DumpFrame, ParticleFrame
 from .kernels import Gaussian, HeavisideBins, Lucy
 
@@ -674,7 +675,9 @@ def coarse_grain(
     bar.update(n_frames, n_particles, steps[-1] if steps else 0, final=True)
     if n_frames == 0:
         raise CGInputError(f"no complete frame selected ({select.describe()}) in {', '.join(paths)}")
-    table = accumulator.conclude()
+    with _warnings.catch_warnings():  # reported below, with the centre counts
+        _warnings.simplefilter("ignore", SparseGridWarning)
+        table = accumulator.conclude()
     fields_table = _tidy(table, coordinates.names)
 
     if truncated:

@@ -159,6 +159,7 @@ than ``16 n_blocks`` frames were accumulated).
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 from typing import Callable, Iterable, Sequence
 
@@ -171,6 +172,15 @@ from .coordinates import XCoordinates
 from .frame import ParticleFrame
 from .kernels import HeavisideBins, channel_bin_edges
 from .overlap import _slab_pairs
+
+#: Below this fraction of the particles' kernel weight on the grid, :meth:`FieldAccumulator.conclude`
+#: warns (:class:`SparseGridWarning`): the axis or the range probably misses the material.
+SPARSE_GRID_FRACTION = 0.01
+
+
+class SparseGridWarning(UserWarning):
+    """The grid holds (almost) none of the particles' weight: a wrong axis or range, most likely."""
+
 
 #: Field names in output order (the default set).
 FIELDS = ("n", "phi", "rho", "u", "Omega", "T", "sigmac", "sigmak", "sigma")
@@ -445,6 +455,8 @@ class FieldAccumulator(ConcludedResult):
 
     def _reset(self) -> None:
         self._sums: _BlockedSums | None = None
+        self._n_particles = 0
+        self.coverage: float | None = None
         self._fields: tuple[str, ...] | None = None
         self._omitted: dict[str, str] | None = None
         self._primitives: tuple[str, ...] = ()
@@ -496,6 +508,7 @@ class FieldAccumulator(ConcludedResult):
         if self._species_primitives:
             parts.append(by_species)
         self._sums.add(np.column_stack(parts))
+        self._n_particles += len(frame.mass)
 
     def conclude(self) -> pd.DataFrame:
         """Derive the time-averaged fields and their standard errors.
@@ -513,7 +526,9 @@ class FieldAccumulator(ConcludedResult):
             raise RuntimeError("FieldAccumulator.conclude() called before prepare()")
         if self._sums is None or self._sums.n_frames == 0:
             raise RuntimeError("FieldAccumulator.conclude() called before any frame was accumulated")
-        values = self._derive(self._sums.total_mean())
+        mean = self._sums.total_mean()
+        self._check_coverage(mean)
+        values = self._derive(mean)
         blocks = [self._derive(mean) for mean in self._sums.block_means(self.n_blocks)]
         errors = {}
         for column in values:
@@ -525,6 +540,26 @@ class FieldAccumulator(ConcludedResult):
         columns = {**self.kernel.node_columns(self.coordinates), **values, **errors}
         self._result = pd.DataFrame(columns)
         return self._result
+
+    def _check_coverage(self, mean: np.ndarray) -> None:
+        """Set :attr:`coverage` and warn when the grid holds almost none of the particles.
+
+        ``coverage`` is the mean number of particles on the grid,
+        :math:`\\sum_n \\bar n_n V_n` (kernel weight inside the grid), over the
+        mean number per frame; None when the ``number`` primitive is not
+        accumulated (fields ``n`` or ``T``) or the frames hold no particles.
+        """
+        if "number" not in self._primitives or self._n_particles == 0:
+            return
+        totals, _ = self._unpack(mean)
+        on_grid = float(np.sum(totals["number"][:, 0] * self._node_volumes))
+        per_frame = self._n_particles / self._sums.n_frames
+        self.coverage = on_grid / per_frame
+        if self.coverage < SPARSE_GRID_FRACTION:
+            warnings.warn(SparseGridWarning(
+                f"the grid holds {on_grid:.3g} of the {per_frame:.3g} particles per frame "
+                f"({100 * self.coverage:.2g} % of their kernel weight): check the axis of the coordinates "
+                f"and the grid's range"), stacklevel=3)
 
     # results -------------------------------------------------------------------
 

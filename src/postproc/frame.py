@@ -226,7 +226,8 @@ class ParticleFrame:
     @property
     def volume(self) -> np.ndarray:
         """Sphere volume :math:`\\tfrac{4}{3}\\pi r_i^3`."""
-        return 4.0 / 3.0 * np.pi * self.radius**3
+        r = self.radius
+        return (4.0 / 3.0 * np.pi) * (r * r * r)
 
     @classmethod
     def from_dump(cls, frame: DumpFrame, stress_compute: str = "stress",

@@ -368,3 +368,31 @@ def test_exact_volume_needs_one_axis_cartesian_bins(kernel, coords):
         FieldAccumulator(kernel, coords, volume="exact")
     with pytest.raises(ValueError, match="'centre' or 'exact'"):
         FieldAccumulator(kernel, coords, volume="whole")
+
+
+def test_a_grid_off_the_material_warns_with_counts():
+    """RZ coordinates about the default axis (0, 0) of a bed centred at (30, 30): nothing on the grid."""
+    import warnings as _w
+
+    from postproc.fields import FieldAccumulator, SparseGridWarning
+
+    rng = np.random.default_rng(0)
+    n = 200
+    pos = np.column_stack([30 + rng.uniform(-5, 5, n), 30 + rng.uniform(-5, 5, n), rng.uniform(0, 10, n)])
+    frame = ParticleFrame(timestep=0, box=np.array([[20.0, 40], [20, 40], [0, 10]]), position=pos,
+                          velocity=np.zeros((n, 3)), mass=np.ones(n), radius=np.full(n, 0.3))
+    acc = FieldAccumulator(HeavisideBins((np.linspace(0, 10, 11), np.linspace(0, 10, 6))), RZCoordinates(),
+                           fields=("n", "rho"))
+    acc.prepare()
+    acc.accumulate(frame)
+    with pytest.warns(SparseGridWarning, match="holds 0 of the 200 particles"):
+        acc.conclude()
+    assert acc.coverage == 0.0
+    centred = FieldAccumulator(HeavisideBins((np.linspace(0, 10, 11), np.linspace(0, 10, 6))),
+                               RZCoordinates((30, 30)), fields=("n", "rho"))
+    centred.prepare()
+    centred.accumulate(frame)
+    with _w.catch_warnings():
+        _w.simplefilter("error", SparseGridWarning)
+        centred.conclude()
+    assert centred.coverage == pytest.approx(1.0)

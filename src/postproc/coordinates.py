@@ -328,16 +328,8 @@ class RZCoordinates(_Cylindrical):
     with radial edges below zero clipped to the axis.
 
     Vectors and tensors are expressed in the cylindrical basis at each point's
-    own azimuth :math:`\\theta = \\operatorname{atan2}(y - y_0, x - x_0)`,
-
-    .. math::
-
-        \\mathbf e_r = (\\cos\\theta, \\sin\\theta, 0), \\quad
-        \\mathbf e_\\theta = (-\\sin\\theta, \\cos\\theta, 0), \\quad
-        \\mathbf e_z = (0, 0, 1),
-
-    components ``r t z`` (``t`` for :math:`\\theta`); on the axis itself
-    (:math:`r = 0`) :math:`\\theta = 0` is taken. A coarse-grained field then
+    own azimuth, components ``r t z`` (``_Cylindrical`` above gives the basis;
+    :math:`\\theta = 0` on the axis). A coarse-grained field then
     averages each particle's components in its own basis: exact for the
     :math:`z` components and for traces (pressures), and, since a kernel of
     width :math:`w` mixes azimuths within :math:`\\sim w / r` of each other, accurate

@@ -18,6 +18,10 @@ Run (or resume) a rendered case on 2 MPI ranks::
 
     granflow run /tmp/channel --np 2
 
+Plan the campaign at the study rung: particles, CPU-hours, memory, ranks, runtime per case, what is done::
+
+    granflow plan --rung study
+
 Coarse-grain any LAMMPS dump (see ``granflow cg --help``)::
 
     granflow cg dump.bin --coords rz --axis 0.05,0.05 --width 0.002 --spacing 0.002 --out cg
@@ -89,6 +93,21 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_plan(args) -> int:
+    from .resources import format_plan, plan_campaign
+
+    path = Path(args.config or PROJECT_ROOT / "config" / "config.yaml")
+    root = path.resolve().parent.parent
+    overrides = ([f"rung={args.rung}"] if args.rung else []) + list(args.overrides)
+    cfg = load_campaign(path, overrides, root=root)
+    results = Path(cfg.get("results_dir", "results"))
+    if not results.is_absolute():
+        results = root / results
+    plan = plan_campaign(cfg, results, max_ranks=args.max_ranks, runtime_limit_min=round(60 * args.runtime_limit_h))
+    print(json.dumps(plan, indent=2) if args.json else format_plan(plan))
+    return 0
+
+
 def cmd_cg(args) -> int:
     argv = getattr(args, "_argv", sys.argv[1:])
     return cg_cli.run(args, command=" ".join(["granflow", *map(shlex.quote, argv)]))
@@ -135,6 +154,31 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("case_dir")
     p.add_argument("--np", type=int, default=1, help="MPI ranks (default 1)")
     p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser(
+        "plan", help="what the campaign costs before submitting: per case and in total",
+        description="For every enabled scene and sweep point of the campaign (validated as the Snakefile\n"
+                    "does): the case directory, particles, atom-steps, estimated CPU-hours, MPI ranks, wall\n"
+                    "hours, the simulate job's runtime and memory, and whether the case is already done\n"
+                    "(run/status.json with a final status); totals per scene and overall; the rates used\n"
+                    "(measured from the finished runs in the results directory, else the reference rate).\n"
+                    "Nothing is written and LAMMPS is not needed.",
+        epilog="examples:\n"
+               "  granflow plan --rung study\n"
+               "  granflow plan --rung paper --max-ranks 128 --json > plan.json\n"
+               "  granflow plan --set scenes.channel.sweep.W=[60,100] --rung paper\n\n"
+               "Numbers are upper bounds: flow until t_flow_max, every averaging segment.\n"
+               "granflow.resources holds the constants and their sources.",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--config", help="campaign YAML (default config/config.yaml)")
+    p.add_argument("--rung", help="fidelity rung (default: the campaign's), e.g. study or paper")
+    p.add_argument("--max-ranks", type=int, default=None, metavar="N",
+                   help="most MPI ranks per case (default 64)")
+    p.add_argument("--runtime-limit-h", type=float, default=24.0, metavar="H",
+                   help="flag simulate jobs longer than this (default 24 h, a common partition limit)")
+    p.add_argument("--json", action="store_true", help="print the plan as JSON")
+    _add_set(p)
+    p.set_defaults(func=cmd_plan)
 
     p = sub.add_parser("cg", help="coarse-grain any LAMMPS dump into continuum fields (CSV, JSON, VTK)",
                        description=cg_cli.DESCRIPTION, epilog=cg_cli.EPILOG,

@@ -17,6 +17,7 @@ from __future__ import annotations
 import importlib
 import math
 import pkgutil
+import re
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -86,6 +87,59 @@ class Knob:
     unit: str
 
 
+@dataclass(frozen=True)
+class Stage:
+    """One stage of a case (init, flow, average): its time steps, atom-steps and LAMMPS invocations."""
+
+    steps: int
+    atom_steps: float
+    segments: int
+
+
+@dataclass(frozen=True)
+class Workload:
+    """The size and length of one case, from its parameter record (:meth:`Scene.workload`).
+
+    ``particles`` is the peak number of atoms LAMMPS holds (for a scene that inserts
+    particles over time ``growing`` is true and it is the count at the end);
+    ``stages`` maps ``init``, ``flow``, ``average`` to :class:`Stage`, the planned
+    maximum; ``pair_style`` is the deck's (:mod:`granflow.resources` prices it);
+    ``max_ranks`` the most ranks the deck's domain decomposition uses well (None: no limit).
+    """
+
+    scene: str
+    particles: int
+    stages: dict[str, Stage]
+    pair_style: str = "gran/hooke/history"
+    growing: bool = False
+    max_ranks: int | None = None
+    note: str = ""
+
+    @property
+    def steps(self) -> int:
+        return sum(s.steps for s in self.stages.values())
+
+    @property
+    def atom_steps(self) -> float:
+        return float(sum(s.atom_steps for s in self.stages.values()))
+
+    @property
+    def segments(self) -> int:
+        """LAMMPS invocations of the whole case."""
+        return sum(s.segments for s in self.stages.values())
+
+    @property
+    def longest_segment_atom_steps(self) -> float:
+        """Atom-steps of the longest single invocation (peak particles x its steps: an upper bound)."""
+        return max((self.particles * s.steps / s.segments for s in self.stages.values() if s.segments), default=0.0)
+
+    @classmethod
+    def constant(cls, scene: str, particles: int, steps: dict[str, tuple[int, int]], **kw) -> "Workload":
+        """A workload whose particle count does not change: ``steps`` maps stage -> (steps, segments)."""
+        stages = {name: Stage(int(n), float(particles) * int(n), int(k)) for name, (n, k) in steps.items()}
+        return cls(scene=scene, particles=int(particles), stages=stages, **kw)
+
+
 class Scene:
     """Base class of a scene declaration; a scene package sets ``SCENE = MyScene()``.
 
@@ -146,6 +200,34 @@ class Scene:
     def describe(self, record: dict) -> str:
         """One line for ``granflow render``: the case's size and main numbers."""
         return f"{record['parameters'].get('n_particles', '?')} particles"
+
+    def workload(self, record: dict):
+        """The case's size and length for planning (:class:`Workload`; :mod:`granflow.resources` prices it).
+
+        Default, for a deck whose particle count does not change: ``n_particles``
+        (or ``n_particles_estimate``) particles; the init stage runs its settling
+        steps ``n_fall + n_settle + n_relax`` (those present; halts that end it
+        early are ignored, so this is an upper bound); ``n_flow_segments`` and
+        ``n_average_segments`` segments of ``n_segment`` steps (all of them: the
+        runner may stop earlier). The pair style is the deck template's
+        ``<name>.lmp.j2`` (with the shared includes it names): ``granular`` if
+        any ``pair_style granular``. Override where the deck runs more or other
+        steps, or inserts particles.
+        """
+        template = (self.package_dir / f"{self.name}.lmp.j2").read_text()
+        shared = Path(__file__).resolve().parents[2] / "lammps_inputs"  # the decks' shared includes
+        for name in re.findall(r"{%\s*include\s+[\"']([^\"']+)[\"']", template):
+            if (shared / name).is_file():
+                template += (shared / name).read_text()
+        styles = re.findall(r"^\s*pair_style\s+(\S+)", template, flags=re.M)
+        prm = record["parameters"]
+        n = int(prm.get("n_particles", record.get("n_particles_estimate", 0)))
+        seg = int(prm.get("n_segment", 0))
+        init = sum(int(prm.get(k, 0)) for k in ("n_fall", "n_settle", "n_relax"))
+        n_flow, n_average = int(record.get("n_flow_segments", 0)), int(record.get("n_average_segments", 0))
+        return Workload.constant(
+            self.name, n, {"init": (init, 1), "flow": (n_flow * seg, n_flow), "average": (n_average * seg, n_average)},
+            pair_style="granular" if "granular" in styles else (styles[0] if styles else "gran/hooke/history"))
 
     def simulate_ranks(self, rung: str, cores: int) -> int:
         """MPI ranks of one run: 1 for the small rungs (cases run side by side), all cores above."""
@@ -271,4 +353,4 @@ def finite(value) -> float:
     return value if math.isfinite(value) else float("nan")
 
 
-__all__ = ["Scene", "SweepAxis", "FigureSpec", "Knob", "scenes", "names", "get", "finite"]
+__all__ = ["Scene", "SweepAxis", "FigureSpec", "Knob", "Stage", "Workload", "scenes", "names", "get", "finite"]

@@ -1,13 +1,14 @@
 """The heap scene's declaration: sweep, checks, analysis glue, table, figures, headline, cost knobs."""
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
 import granflow.scenes.heap.figures as figures
 from granflow.config import ConfigError, require
 from granflow.preflight import PreflightError
-from granflow.registry import FigureSpec, Knob, Scene, SweepAxis
+from granflow.registry import FigureSpec, Knob, Scene, Stage, SweepAxis
 
 from .parameters import feed_plan, heap_parameters
 
@@ -73,6 +74,31 @@ class HeapScene(Scene):
         prm = record["parameters"]
         return (f"W = {prm['W']:g} m, feed rate {prm['feed_rate']:g} kg/s ({prm['feed_rate_planned']:.4g} planned), "
                 f"~{record['n_particles_estimate']} particles by the end")
+
+    def workload(self, record: dict):
+        """Particles are poured: none at the start, ``sum(nper)`` every ``n_feed`` steps from the
+        first step of each segment (``fix pour`` inserts at step 1, 1 + n_feed, ...), so the count
+        grows linearly and ``particles`` is the count at the end (not ``n_particles_estimate``,
+        which stops at the estimated steady time plus t_average). Atom-steps sum the count over
+        every step. The deck splits the box along x only (``processors * 1 1``): at most one
+        rank per two largest diameters of W.
+        """
+        base = super().workload(record)
+        prm = record["parameters"]
+        seg, nfreq = int(prm["n_segment"]), int(prm["n_feed"])
+        batch = sum(int(p["nper"]) for p in record["feed"]["pours"])
+        batches = seg // nfreq  # insertions per segment (n_segment is a whole number of feed periods)
+        n, stages = 0, {"init": Stage(0, 0.0, 1)}
+        for name, k in (("flow", int(record["n_flow_segments"])), ("average", int(record["n_average_segments"]))):
+            atom_steps = 0.0
+            for _ in range(k):
+                atom_steps += nfreq * (batches * n + batch * batches * (batches + 1) / 2)
+                n += batches * batch
+            stages[name] = Stage(k * seg, atom_steps, k)
+        d_max = max(s["d_hi"] for s in record["species"])
+        return dataclasses.replace(base, particles=n, stages=stages, growing=True,
+                                   max_ranks=max(1, int(prm["W"] // (2 * d_max))),
+                                   note="particles poured over time: the count at the end")
 
     def simulate_ranks(self, rung: str, cores: int) -> int:
         """All cores from demo up (one large case, balanced along x).

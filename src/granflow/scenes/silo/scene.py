@@ -2,6 +2,7 @@
 Beverloo fit, figures, headline, cost knobs."""
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -58,6 +59,18 @@ class SiloScene(Scene):
 
     def describe(self, record: dict) -> str:
         return f"R = {record['R_over_rb']:g} r_b, R_c = {record['R_c']:g} m, {record['n_particles']} particles"
+
+    def workload(self, record: dict):
+        """The default (settling up to ``n_settle``, then the discharge segments) with the frozen
+        rim ring's atoms added; the count is the fill's, an upper bound: without re-insertion it
+        falls as the silo empties. The deck splits x and y only (``processors * * 1``): at most
+        one rank per two largest diameters across, in each."""
+        base = super().workload(record)
+        n = int(record["n_particles"]) + int(record["rim"]["n"])
+        per_side = max(1, int((2 * record["R_c"]) // (4 * record["r_b"])))
+        stages = {k: dataclasses.replace(s, atom_steps=float(n) * s.steps) for k, s in base.stages.items()}
+        return dataclasses.replace(base, particles=n, stages=stages, max_ranks=per_side ** 2,
+                                   note="" if record["reinsert"] else "fill count: falls as the silo empties")
 
     def after_segment(self, segment_thermo, record):
         """``clogged`` or ``completed`` (emptied) after a discharge segment: see :func:`discharge_verdict`."""

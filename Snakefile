@@ -15,12 +15,14 @@ configfile: os.path.join(workflow.basedir, "config", "config.yaml")
 include: "workflows/rules/common.smk"
 include: "workflows/rules/scenes.smk"
 include: "workflows/rules/cost.smk"
+include: "workflows/rules/provenance.smk"
 
 
 rule all:
-    """Every enabled scene's table and figures (scenes are found through granflow's registry)."""
+    """Every enabled scene's table, figures and provenance (scenes are found through granflow's registry)."""
     input:
         scene_targets(),
+        provenance_targets(),
 
 
 rule cost:

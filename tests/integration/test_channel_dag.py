@@ -102,3 +102,42 @@ def test_killed_segment_leaves_log_and_resumes(smoke_campaign):
     assert not list(run.glob("*.partial"))
     assert (run / "logs" / "init.log").exists()
     assert all((run / f"{p.stem}.restart").exists() for p in (run / "logs").glob("*.log"))
+
+
+def test_provenance_per_case_in_the_report(smoke_campaign, root):
+    """`snakemake` writes each case's provenance.json and the scene's provenance.csv, and the report holds the table."""
+    import base64
+    import hashlib
+
+    case, work = smoke_campaign["case"], smoke_campaign["work"]
+    prov = json.loads((case / "provenance.json").read_text())
+    git = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True)
+    assert prov["granflow_commit"] == (git.stdout.strip() if git.returncode == 0 else "unknown")
+    assert prov["granflow_dirty"] in ((True, False) if git.returncode == 0 else ("unknown",))
+    assert prov["inputs_sha256"] == {name: hashlib.sha256((case / name).read_bytes()).hexdigest()
+                                     for name in ("average.lmp", "flow.lmp", "init.lmp", "params.json")}
+    status = json.loads((case / "run" / "status.json").read_text())
+    assert prov["lammps_version"].startswith("LAMMPS (")
+    assert (prov["scene"], prov["rung"], prov["status"], prov["ranks"]) == ("channel", "smoke", status["status"],
+                                                                           status["nprocs"])
+    assert prov["seeds"] == {"seed": json.loads((case / "params.json").read_text())["parameters"]["seed"]}
+    assert prov["cpu_seconds"] > 0 and prov["wall_seconds"] > 0
+    assert prov["host"] == status.get("host", "unknown")
+    csv = smoke_campaign["results"] / "channel" / "smoke" / "provenance.csv"
+    table = pd.read_csv(csv)
+    assert list(table["case"]) == ["W~10/phi~0.57"]
+    assert table["sha256:init.lmp"].iloc[0] == prov["inputs_sha256"]["init.lmp"]
+    assert table["granflow_commit"].iloc[0] == prov["granflow_commit"]
+
+    report = work / "report.html"
+    cmd = smoke_campaign["cmd"][:-2] + ["--report", str(report)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    lines = {line.split("=", 1)[0].split()[-1]: line.split("=", 1)[1].strip().rstrip(";")
+             for line in report.read_text().splitlines() if line.lstrip().startswith(("var results =",
+                                                                                     "var categories ="))}
+    results, categories = json.loads(lines["results"]), json.loads(lines["categories"])
+    assert categories["provenance"] == {"channel": [str(csv)]}
+    entry = results[str(csv)]
+    assert "Provenance of every case of the channel scene" in entry["caption"]
+    assert base64.b64decode(entry["data_uri"].split("base64,", 1)[1]) == csv.read_bytes()

@@ -1,17 +1,20 @@
 # granflow: two commands on a fresh machine.
 #   make demo  - create .venv, install everything, run the default campaign on 2 cores
 #   make test  - create .venv if missing, install, run the test suite
+#   make test-slurm - the cluster path: a one-node SLURM cluster on localhost (root), the smoke campaign through profiles/slurm
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 CORES  ?= 2
 STAMP  := $(VENV)/.installed
 
-.PHONY: venv demo test report cost bench clean-results help
+.PHONY: venv demo test test-slurm report cost bench clean-results help
 
 help:
 	@echo "make demo   - install into .venv and run the default campaign (snakemake --cores $(CORES))"
 	@echo "make test   - install into .venv and run the tests"
+	@echo "make test-slurm - start a one-node SLURM cluster on localhost (root; installs Debian's slurm if missing),"
+	@echo "              run the smoke campaign through profiles/slurm, compare it with a local run, stop the cluster"
 	@echo "make report - build report.html from finished results"
 	@echo "make cost   - run the error-versus-cost study (snakemake cost, ~1 h on 2 cores) and add it to report.html"
 	@echo "make bench  - run the benchmarks in bench/ (by hand; results are recorded, not asserted)"
@@ -31,6 +34,9 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	PATH="$(CURDIR)/$(BIN):$$PATH" $(BIN)/python -m pytest -q
+
+test-slurm: $(STAMP)
+	bash tests/slurm/run.sh
 
 report: $(STAMP)
 	$(BIN)/snakemake --cores $(CORES) --report report.html

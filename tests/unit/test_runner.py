@@ -3,6 +3,7 @@ import json
 import shutil
 
 import pandas as pd
+import pytest
 
 from granflow.runner import CaseRunner, error_line, loop_cost, parse_thermo, performance
 
@@ -71,3 +72,98 @@ def test_cpu_of_lammps_descendants_is_recorded_per_segment(tmp_path):
     assert usage["cpu_s"] >= 0.3 and usage["peak_rss_mb"] > 0 and usage["wall_s"] >= usage["cpu_s"] * 0.5
     total = runner.usage()
     assert total["cpu_seconds"] == usage["cpu_s"] and total["peak_rss_mb"] == usage["peak_rss_mb"]
+
+
+# ------------------------------------------------------------------------- the MPI launcher
+def fake_program(path, record):
+    """An executable that writes its argv and OMP_NUM_THREADS to ``record`` (a stand-in for srun)."""
+    import stat
+    import sys
+
+    path.write_text(f"#!{sys.executable}\n"
+                    "import json, os, sys\n"
+                    f"open({str(record)!r}, 'w').write(json.dumps({{'argv': sys.argv, "
+                    "'omp': os.environ.get('OMP_NUM_THREADS')}))\n")
+    path.chmod(path.stat().st_mode | stat.S_IEXEC)
+    return path
+
+
+def test_launcher_forms_give_the_ranks_of_the_case(tmp_path):
+    """Every accepted form becomes `<prog> -np N` (mpirun) or `srun [--mpi=T] -n N`, N from the case."""
+    from granflow.runner import launcher_argv
+
+    venv_mpirun = fake_program(tmp_path / "mpirun", tmp_path / "unused.json")
+    assert launcher_argv("mpirun", 3, bindir=tmp_path) == [str(venv_mpirun), "-np", "3"]  # the venv's
+    assert launcher_argv(f"{venv_mpirun} -np {{ranks}}", 3) == [str(venv_mpirun), "-np", "3"]
+    assert launcher_argv("/opt/mpich/bin/mpiexec.hydra -n {ranks}", 2) == ["/opt/mpich/bin/mpiexec.hydra", "-np", "2"]
+    assert launcher_argv("/usr/bin/srun --mpi=pmi2", 4) == ["/usr/bin/srun", "--mpi=pmi2", "-n", "4"]
+    assert launcher_argv("/usr/bin/srun --mpi=pmix -n {ranks}", 4) == ["/usr/bin/srun", "--mpi=pmix", "-n", "4"]
+    assert launcher_argv("/usr/bin/srun --ntasks={ranks}", 1) == ["/usr/bin/srun", "-n", "1"]
+    # a path with a space is one program, never split
+    (tmp_path / "my mpi").mkdir()
+    spaced = fake_program(tmp_path / "my mpi" / "mpirun", tmp_path / "unused.json")
+    assert launcher_argv(str(spaced), 2) == [str(spaced), "-np", "2"]
+
+
+@pytest.mark.parametrize("spec, named", [
+    ("bash -c 'lmp'", "'bash' is not mpirun, mpiexec or srun"),
+    ("srun --mpi=pmi2; rm -rf ~", "--mpi=pmi2;"),            # never a shell: ';' is part of a word
+    ("mpirun -np 4", "must be followed by {ranks}"),          # the case decides the ranks
+    ("srun -n 8", "must be followed by {ranks}"),
+    ("srun --mpi=bogus", "--mpi=bogus"),
+    ("srun --overlap --mpi=pmi2", "--overlap"),
+    ("mpirun --oversubscribe", "--oversubscribe"),
+    ("srun $(reboot)", "$(reboot)"),
+    ("", "empty"),
+    ("srun 'unclosed", "cannot be split"),
+])
+def test_launcher_refuses_anything_else_naming_the_value(spec, named):
+    from granflow.runner import LauncherError, launcher_argv
+
+    with pytest.raises(LauncherError) as exc:
+        launcher_argv(spec, 2)
+    assert repr(spec) in str(exc.value) and named in str(exc.value)
+
+
+def test_bad_launcher_is_refused_before_anything_runs(tmp_path):
+    from granflow.runner import LauncherError, Tools
+
+    (tmp_path / "params.json").write_text(json.dumps({"protocol": {}}))
+    with pytest.raises(LauncherError, match="'sh -c true'"):
+        CaseRunner(tmp_path, 2, tools=Tools(lmp="lmp", mpirun="mpirun", launcher="sh -c true"))
+    assert not (tmp_path / "run").exists()
+
+
+def test_profile_launcher_runs_lammps_and_is_recorded(tmp_path, monkeypatch):
+    """The launcher a profile chooses (resource `mpi`) starts LAMMPS on the case's ranks, one
+    OpenMP thread each whatever Snakemake exported; status.json names the host and launcher."""
+    import socket
+
+    from granflow.runner import Tools
+
+    record = tmp_path / "argv.json"
+    srun = fake_program(tmp_path / "srun", record)
+    (tmp_path / "params.json").write_text(json.dumps({"protocol": {}, "guards": {"report_overlap": 0.01}}))
+    (tmp_path / "run").mkdir()
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")  # as Snakemake sets it for a 3-thread job
+    runner = CaseRunner(tmp_path, 3, tools=Tools.default(launcher=f"{srun} --mpi=pmi2"))
+    runner._lammps("init.lmp", "init", {"segment": 0})
+    seen = json.loads(record.read_text())
+    assert seen["argv"][:5] == [str(srun), "--mpi=pmi2", "-n", "3", runner.tools.lmp]
+    assert seen["argv"][5:7] == ["-in", str(tmp_path / "init.lmp")] and seen["omp"] == "1"
+    status = runner._conclude(None, 0, 0, None)
+    assert status["launcher"] == f"{srun} --mpi=pmi2 -n 3" and status["nprocs"] == 3
+    assert status["host"] == socket.gethostname()
+    assert json.loads((tmp_path / "run" / "status.json").read_text())["launcher"] == status["launcher"]
+
+
+def test_granflow_mpirun_still_chooses_the_default_launcher(tmp_path, monkeypatch):
+    from granflow.runner import Tools
+
+    record = tmp_path / "argv.json"
+    mpirun = fake_program(tmp_path / "mpirun", record)
+    monkeypatch.setenv("GRANFLOW_MPIRUN", str(mpirun))
+    tools = Tools.default()
+    assert tools.launch(2) == [str(mpirun), "-np", "2"]
+    # a profile's launcher wins over it
+    assert Tools.default(launcher="srun --mpi=pmi2").launch(2)[-3:] == ["--mpi=pmi2", "-n", "2"]

@@ -9,6 +9,7 @@ sys.path.insert(0, str(Path(workflow.basedir) / "src"))
 from granflow import registry  # noqa: E402
 from granflow.campaign import validate_campaign  # noqa: E402
 from granflow.config import ConfigError  # noqa: E402
+from granflow.resources import simulate_resources  # noqa: E402
 
 try:
     # the config Snakemake actually uses: the file plus any --configfile/--config overrides
@@ -53,3 +54,27 @@ def simulate_threads(wildcards):
 
 def analyse_threads(wildcards):
     return SCENES[wildcards.scene].analyse_threads(workflow.cores)
+
+
+# Resources of one simulate job, from the case itself (granflow.resources.simulate_resources on
+# its params.json: one MPI rank per 10k particles, memory, minutes for the whole case). They
+# reach a scheduler through a profile (profiles/slurm: sbatch --ntasks/--mem/-t); locally
+# `threads` still set the ranks and these only describe the job.
+def simulate_tasks(wildcards, input, threads, attempt):
+    """MPI tasks of the case; LAMMPS runs on exactly these when a profile sets the `mpi` launcher.
+
+    At least 2: Snakemake's SLURM executor refuses an MPI job of one task ("For MPI jobs,
+    'tasks' must be greater than 1"), and a case needing one rank runs no slower on two.
+    """
+    return max(2, simulate_resources(input.params)["tasks"])
+
+
+def simulate_mem_mb(wildcards, input, threads, attempt):
+    """Memory of the job (runner + LAMMPS ranks + particles, with margin), MB."""
+    return simulate_resources(input.params)["mem_mb"]
+
+
+def simulate_runtime(wildcards, input, threads, attempt):
+    """Minutes for every segment of the case in one job (a killed job resumes after its last
+    complete segment when resubmitted: the SLURM profile retries)."""
+    return simulate_resources(input.params)["runtime"]

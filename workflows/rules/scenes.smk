@@ -53,6 +53,10 @@ rule simulate:
         status=CASE + "/run/status.json",
         thermo=CASE + "/run/thermo.csv",
     threads: simulate_threads
+    resources:
+        tasks=simulate_tasks,
+        mem_mb=simulate_mem_mb,
+        runtime=simulate_runtime,
     log:
         CASE + "/logs/simulate.log",
     script:

@@ -29,6 +29,31 @@ RATE_COLUMNS = ("t", "t_lo", "t_hi", "n", "rate", "rate_se")
 
 
 # --------------------------------------------------------------------------- fits
+def _finite_pairs(x, y) -> tuple[np.ndarray, np.ndarray]:
+    """``x`` and ``y`` as float arrays, without the pairs where either is not finite."""
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    return x[ok], y[ok]
+
+
+def check_series(t, y, rel_tol: float, min_windows: int, name: str = "y") -> tuple[np.ndarray, np.ndarray]:
+    """``t`` and ``y`` as equal-length 1-D float arrays, after checking them and the band settings.
+
+    Raises
+    ------
+    ValueError
+        Arrays of different shapes or not 1-D; ``rel_tol`` outside (0, 1); ``min_windows`` < 1.
+    """
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if t.shape != y.shape or t.ndim != 1:
+        raise ValueError(f"t and {name} must be 1-D arrays of equal length, got {t.shape} and {y.shape}")
+    if not 0 < rel_tol < 1 or int(min_windows) < 1:
+        raise ValueError("rel_tol must lie in (0, 1) and min_windows be at least 1")
+    return t, y
+
+
 def linear_fit(x, y) -> tuple[float, float, float, float]:
     """Ordinary least-squares line :math:`y = a x + b` with the slope's standard error.
 
@@ -45,10 +70,7 @@ def linear_fit(x, y) -> tuple[float, float, float, float]:
         NaN when fewer than two points or no spread in ``x``; ``slope_se`` is
         NaN with two points.
     """
-    x = np.asarray(x, dtype=float)
-    y = np.asarray(y, dtype=float)
-    ok = np.isfinite(x) & np.isfinite(y)
-    x, y = x[ok], y[ok]
+    x, y = _finite_pairs(x, y)
     n = len(x)
     if n < 2 or np.ptp(x) == 0:
         return np.nan, np.nan, np.nan, np.nan
@@ -82,10 +104,7 @@ def cumulative_rate(t, m) -> tuple[float, float]:
     W, W_se : float
         NaN with fewer than three finite samples.
     """
-    t = np.asarray(t, dtype=float)
-    m = np.asarray(m, dtype=float)
-    ok = np.isfinite(t) & np.isfinite(m)
-    t, m = t[ok], m[ok]
+    t, m = _finite_pairs(t, m)
     n = len(t)
     if n < 3 or np.ptp(t) == 0:
         return np.nan, np.nan
@@ -502,12 +521,7 @@ def steady_window(t, y, *, rel_tol: float = 0.1, min_windows: int = 3, window: f
         With NaN bounds and ``n_windows = 0`` when there is no steady window
         (never an exception for a valid series).
     """
-    t = np.asarray(t, dtype=float)
-    y = np.asarray(y, dtype=float)
-    if t.shape != y.shape or t.ndim != 1:
-        raise ValueError(f"t and y must be 1-D arrays of equal length, got {t.shape} and {y.shape}")
-    if not 0 < rel_tol < 1 or int(min_windows) < 1:
-        raise ValueError("rel_tol must lie in (0, 1) and min_windows be at least 1")
+    t, y = check_series(t, y, rel_tol, min_windows)
     if not (startup is None or (isinstance(startup, str) and startup == "auto")
             or (isinstance(startup, (int, float, np.integer, np.floating)) and np.isfinite(startup))):
         raise ValueError(f"startup must be 'auto', a finite time or None, got {startup!r}")

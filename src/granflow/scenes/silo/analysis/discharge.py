@@ -41,7 +41,8 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import curve_fit
 
-from postproc.series import SteadyWindow, cumulative_rate, linear_fit, steady_rate, window_masks  # noqa: F401
+from postproc.series import (SteadyWindow, check_series, cumulative_rate, linear_fit,  # noqa: F401
+                             steady_rate, window_masks)
 from postproc.series import steady_window as series_steady_window
 
 #: Fraction of the orifice radius over which the velocity profile is compared
@@ -228,12 +229,7 @@ def discharge_steady_window(t, W_f, rel_tol: float = 0.1, min_windows: int = 3, 
     coarsen : bool
         Average blocks of windows when their scatter is too large for the band.
     """
-    t = np.asarray(t, dtype=float)
-    w = np.asarray(W_f, dtype=float)
-    if t.shape != w.shape or t.ndim != 1:
-        raise ValueError(f"t and W_f must be 1-D arrays of equal length, got {t.shape} and {w.shape}")
-    if not 0 < rel_tol < 1 or int(min_windows) < 1:
-        raise ValueError("rel_tol must lie in (0, 1) and min_windows be at least 1")
+    t, w = check_series(t, W_f, rel_tol, min_windows, name="W_f")
     usable = np.isfinite(t) & np.isfinite(w)
     note = ""
     if fill_height is not None and min_fill_height is not None:

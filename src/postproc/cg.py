@@ -63,7 +63,6 @@ import hashlib
 import json
 import math
 import os
-import sys
 import time
 import warnings as _warnings
 from dataclasses import dataclass, field
@@ -400,9 +399,7 @@ def _paired(frames: Iterable[ParticleFrame], contacts: Iterator[ContactFrame] | 
         for frame in frames:
             yield frame, None
         return
-    pending: ContactFrame | None = None
-
-    def next_contact():
+    def next_contact() -> ContactFrame | None:
         for c in contacts:
             if select(c.timestep):
                 return c
@@ -410,7 +407,7 @@ def _paired(frames: Iterable[ParticleFrame], contacts: Iterator[ContactFrame] | 
 
     pending = next_contact()
     for frame in frames:
-        while pending is not None and pending.timestep < frame.timestep:
+        if pending is not None and pending.timestep < frame.timestep:
             raise CGInputError(f"contact frame at step {pending.timestep} has no atom frame at that step "
                                f"(the next atom frame is at step {frame.timestep}); contacts and atoms "
                                f"must be dumped at the same steps")

@@ -21,7 +21,7 @@ from . import registry
 #: Root of the project (``src/granflow/config.py`` -> project root).
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 SCHEMA_DIR = PROJECT_ROOT / "config" / "schema"
-RUNGS = ("smoke", "demo", "study", "paper")
+RUNGS = ("smoke", "demo", "study", "paper", "validation")
 
 
 class _Loader(yaml.SafeLoader):

@@ -8,7 +8,7 @@ BIN    := $(VENV)/bin
 CORES  ?= 2
 STAMP  := $(VENV)/.installed
 
-.PHONY: venv demo test test-slurm report cost bench clean-results help
+.PHONY: venv demo test test-slurm report cost validate bench clean-results help
 
 help:
 	@echo "make demo   - install into .venv and run the default campaign (snakemake --cores $(CORES))"
@@ -17,6 +17,8 @@ help:
 	@echo "              run the smoke campaign through profiles/slurm, compare it with a local run, stop the cluster"
 	@echo "make report - build report.html from finished results"
 	@echo "make cost   - run the error-versus-cost study (snakemake cost, ~1 h on 2 cores) and add it to report.html"
+	@echo "make validate - run the validation campaign (config/validation.yaml, hours on 2 cores, resumable) and"
+	@echo "              write the committed record validation/<scene>/ and validation/README.md"
 	@echo "make bench  - run the benchmarks in bench/ (by hand; results are recorded, not asserted)"
 
 $(STAMP): requirements.txt pyproject.toml
@@ -44,6 +46,10 @@ report: $(STAMP)
 cost: $(STAMP)
 	$(BIN)/snakemake --cores $(CORES) cost
 	$(BIN)/snakemake --cores $(CORES) --report report.html all cost
+
+# one MPI rank per case: two cases side by side on 2 cores run faster than one case on 2 ranks
+validate: $(STAMP)
+	$(BIN)/snakemake --configfile config/validation.yaml --cores $(CORES) --set-threads simulate=1 --keep-going validate
 
 bench: $(STAMP)
 	$(BIN)/python bench/bench_channel.py

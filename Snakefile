@@ -16,6 +16,7 @@ include: "workflows/rules/common.smk"
 include: "workflows/rules/scenes.smk"
 include: "workflows/rules/cost.smk"
 include: "workflows/rules/provenance.smk"
+include: "workflows/rules/validation.smk"
 
 
 rule all:
@@ -29,3 +30,10 @@ rule cost:
     """Error-versus-cost study of every scene in the campaign's `cost` section (not part of `all`)."""
     input:
         cost_targets(),
+
+
+rule validate:
+    """The validation record (validation/<scene>/, validation/README.md): run with
+    `make validate`, i.e. --configfile config/validation.yaml (not part of `all`)."""
+    input:
+        validation_targets(),

@@ -279,6 +279,17 @@ class Scene:
         window = block or (0.0, t_average)
         return dict(self.nan_observables(), **measure(case_dir, record, t_window=window)), window
 
+    # -- the validation record ----------------------------------------------------------
+    def validation(self, scene_dir: Path, cases: dict[str, Path]):
+        """Compare the finished cases of ``scene_dir`` (``{case dir name: path}``, analysed,
+        with the rung's figures under ``scene_dir/figures``) with the paper.
+
+        Returns a :class:`granflow.validation.ValidationResult`: one ``Check`` per quantity
+        (the paper's value and where it is stated, ours with its statistical error), the
+        profiles and figures to keep, and what differs from the paper's set-up.
+        """
+        raise NotImplementedError(f"scene {self.name!r} has no validation (Scene.validation)")
+
     def paper_reference(self, scene: dict) -> dict:
         """Particle count and simulated time of the paper rung (for the cost extrapolation)."""
         raise NotImplementedError(f"scene {self.name!r} has no paper reference")

@@ -1,0 +1,310 @@
+"""The validation record: each scene's headline numbers against its paper.
+
+A scene compares its finished cases with its paper in :meth:`granflow.registry.Scene.validation`,
+which returns a :class:`ValidationResult`: one :class:`Check` per quantity (the paper's value
+with the figure or table it comes from, ours with its statistical error, the case it was
+measured on), the profiles its figures need, the figures to keep, and what differs from the
+paper's set-up. This module is generic: it judges each check (:func:`verdict`), gathers the
+provenance of the cases (git commit, LAMMPS version, CPU-hours), picks the key log lines, and
+writes ``validation/<scene>/`` and the one table of ``validation/README.md``.
+
+Verdicts are computed, never typed in: a check is ``within error`` when the paper's value or
+range lies within ``k`` combined standard errors of ours (``k`` = :data:`SIGMAS`), otherwise
+it ``differs`` by the relative amount to the nearest paper value, in units of the error.
+"""
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from . import provenance
+
+#: a difference within this many standard errors is called "within error"
+SIGMAS = 2.0
+#: the committed record may hold at most this many bytes per scene (DEVELOPERS.md)
+MAX_SCENE_BYTES = 1_000_000
+
+
+@dataclass
+class Check:
+    """One row of the validation table.
+
+    Parameters
+    ----------
+    quantity : str
+        What is compared, e.g. ``u_max/u_slip``.
+    paper : str
+        The paper's value as the paper states it, e.g. ``1.37-1.40``.
+    source : str
+        Where in the paper: figure, table, equation or section.
+    ours : float
+        Our value.
+    error : float
+        One standard error of ours (NaN when the quantity has none).
+    case : str
+        Case directory it was measured on, or ``sweep`` for a fit over the cases.
+    paper_range : tuple of float or None
+        The paper's value as numbers ``(lo, hi)`` (``lo == hi`` for one value); None when the
+        paper gives a shape, not a number (the verdict is then the note's words).
+    paper_error : float
+        The paper's own uncertainty of a single value (0 when it gives none).
+    unit : str
+    note : str
+        What the comparison means, or what we think causes a difference.
+    """
+
+    quantity: str
+    paper: str
+    source: str
+    ours: float
+    error: float = float("nan")
+    case: str = "sweep"
+    paper_range: tuple[float, float] | None = None
+    paper_error: float = 0.0
+    unit: str = ""
+    note: str = ""
+    verdict: str = field(default="", init=False)
+    difference: float = field(default=float("nan"), init=False)
+
+    def __post_init__(self):
+        self.ours = float(self.ours)
+        self.error = float(self.error)
+        self.verdict, self.difference = verdict(self.ours, self.error, self.paper_range, self.paper_error)
+
+
+def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0) -> tuple[str, float]:
+    """``(words, relative difference)`` of ours against the paper's range.
+
+    The difference is measured to the nearest end of the range (0 inside it); the
+    combined error is ``sqrt(error^2 + paper_error^2)``. ``within error`` when the
+    difference is within :data:`SIGMAS` combined errors; ``differs by X % (Y sigma)`` otherwise;
+    ``no statistical error`` when ours has none and lies outside the range.
+    """
+    if paper_range is None:
+        return "shape compared (see note)", float("nan")
+    if not math.isfinite(ours):
+        return "not measured", float("nan")
+    lo, hi = sorted(float(v) for v in paper_range)
+    nearest = min(max(ours, lo), hi)
+    diff = ours - nearest
+    rel = diff / abs(nearest) if nearest else diff
+    sig = math.hypot(error if math.isfinite(error) else 0.0, paper_error)
+    if diff == 0.0:
+        return "within the paper's range" if hi > lo else "equal", 0.0
+    if sig > 0 and abs(diff) <= SIGMAS * sig:
+        return f"within error ({abs(diff) / sig:.1f} σ)", rel
+    words = f"differs by {100 * rel:+.1f} %"
+    if sig > 0:
+        words += f" ({abs(diff) / sig:.0f} σ)"
+    elif not math.isfinite(error):
+        words += " (no statistical error)"
+    return words, rel
+
+
+@dataclass
+class ValidationResult:
+    """What a scene's :meth:`~granflow.registry.Scene.validation` returns.
+
+    Parameters
+    ----------
+    checks : list of Check
+    profiles : dict of str to DataFrame
+        Small tables the figures need (written as ``profiles/<name>.csv``).
+    figures : list of str
+        Names of the scene's figures (``<results>/<scene>/<rung>/figures/<name>.png``) to keep.
+    differences : list of str
+        What differs from the paper's set-up, and why.
+    """
+
+    checks: list[Check]
+    profiles: dict[str, pd.DataFrame] = field(default_factory=dict)
+    figures: list[str] = field(default_factory=list)
+    differences: list[str] = field(default_factory=list)
+
+
+#: log lines worth keeping from each case (substrings; the first and last match of each)
+KEY_LOG_LINES = ("LAMMPS (", "Loop time", "Total wall time", "WARNING", "ERROR", "halt")
+
+
+def key_log_lines(case_dir: Path, limit: int = 40) -> list[str]:
+    """The status and the key lines of a case's LAMMPS logs (version, loop times, warnings)."""
+    lines = []
+    status = case_dir / "run" / "status.json"
+    if status.exists():
+        st = json.loads(status.read_text())
+        lines.append(f"status: {st.get('status')}: {st.get('reason')}")
+        if "max_overlap" in st:
+            lines.append(f"largest overlap: {st['max_overlap']:.4g} of the smallest diameter")
+    for log in sorted((case_dir / "run" / "logs").glob("*.log")):
+        seen = {}
+        for line in log.read_text(errors="replace").splitlines():
+            for key in KEY_LOG_LINES:
+                if key in line:
+                    seen.setdefault(key, []).append(line.strip())
+        for key in KEY_LOG_LINES:
+            hits = seen.get(key, [])
+            for hit in dict.fromkeys(hits[:1] + hits[-1:]):
+                lines.append(f"{log.name}: {hit}")
+    return lines[:limit] if len(lines) <= limit else lines[:limit // 2] + ["..."] + lines[-limit // 2:]
+
+
+def case_summary(case_dir: Path) -> dict:
+    """Provenance of one case (commit, LAMMPS version, status, CPU-hours) for the record."""
+    prov = provenance.case_provenance(case_dir)
+    status = json.loads((case_dir / "run" / "status.json").read_text())
+    record = json.loads((case_dir / "params.json").read_text())
+    cpu = prov.get("cpu_seconds")
+    return {
+        "case": prov["case"], "status": prov["status"], "reason": status.get("reason"),
+        "granflow_commit": prov["granflow_commit"], "granflow_dirty": prov["granflow_dirty"],
+        "lammps_version": prov["lammps_version"], "ranks": prov["ranks"],
+        "cpu_hours": cpu / 3600.0 if isinstance(cpu, (int, float)) else float("nan"),
+        "wall_hours": (prov["wall_seconds"] / 3600.0 if isinstance(prov.get("wall_seconds"), (int, float))
+                       else float("nan")),
+        "particles": record.get("n_particles") or record.get("n_particles_estimate"),
+        "max_overlap": status.get("max_overlap"),
+    }
+
+
+def _clean(value):
+    """JSON-safe: NaN and inf become None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    return value
+
+
+def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs: dict[str, Path],
+                 figures_dir: Path, out: Path, paper: str = "") -> dict:
+    """Write ``out`` = ``validation/<scene>/``: summary.json, checks.csv, profiles, figures, logs.
+
+    ``case_dirs`` maps each case's directory name (e.g. ``W~60/phi~0.6``) to its path.
+
+    Returns the summary. Refuses (ValueError) a record over :data:`MAX_SCENE_BYTES`.
+    """
+    out = Path(out)
+    if out.exists():
+        shutil.rmtree(out)
+    (out / "profiles").mkdir(parents=True)
+    (out / "figures").mkdir()
+    (out / "logs").mkdir()
+    cases = [dict(dir=rel, **case_summary(Path(path))) for rel, path in case_dirs.items()]
+    checks = [asdict(c) for c in result.checks]
+    pd.DataFrame(checks).to_csv(out / "checks.csv", index=False)
+    for name, table in result.profiles.items():
+        table.to_csv(out / "profiles" / f"{name}.csv", index=False, float_format="%.6g")
+    for name in result.figures:
+        src = Path(figures_dir) / f"{name}.png"
+        if src.exists():
+            shutil.copyfile(src, out / "figures" / src.name)
+    for rel, path in case_dirs.items():
+        (out / "logs" / (rel.replace("/", "_") + ".txt")).write_text("\n".join(key_log_lines(Path(path))) + "\n")
+    commits = sorted({c["granflow_commit"] for c in cases if c["granflow_commit"]})
+    summary = {
+        "scene": scene_name, "rung": rung, "paper": paper,
+        "granflow_commits": commits,
+        "lammps_versions": sorted({str(c["lammps_version"]) for c in cases}),
+        "cpu_hours": sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"])),
+        "cases": cases, "checks": checks, "differences": result.differences,
+        "figures": [f"figures/{n}.png" for n in result.figures if (out / "figures" / f"{n}.png").exists()],
+        "sigmas": SIGMAS,
+    }
+    (out / "summary.json").write_text(json.dumps(_clean(summary), indent=1, ensure_ascii=False) + "\n")
+    size = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
+    if size > MAX_SCENE_BYTES:
+        raise ValueError(f"validation record of {scene_name} is {size / 1e6:.2f} MB: allowed <= "
+                         f"{MAX_SCENE_BYTES / 1e6:.1f} MB (fewer or smaller figures and profiles)")
+    return summary
+
+
+def _fmt(x: float, err: float = float("nan")) -> str:
+    if x is None or not math.isfinite(x):
+        return "–"
+    if err is not None and math.isfinite(err) and err > 0:
+        digits = max(0, 1 - int(math.floor(math.log10(err))))
+        return f"{x:.{digits}f} ± {err:.{digits}f}"
+    return f"{x:.4g}"
+
+
+def readme_table(summaries: list[dict]) -> str:
+    """The one table of ``validation/README.md`` from the scenes' summaries."""
+    rows = ["| scene | quantity | paper (source) | ours ± error | case | rung, size | CPU-h | verdict |",
+            "|---|---|---|---|---|---|---|---|"]
+    for s in summaries:
+        size = ", ".join(sorted({f"{c['particles']:,} particles" for c in s["cases"] if c.get("particles")}))
+        for c in s["checks"]:
+            unit = f" {c['unit']}" if c.get("unit") else ""
+            rows.append(f"| {s['scene']} | {c['quantity']} | {c['paper']}{unit} ({c['source']}) | "
+                        f"{_fmt(c['ours'], c['error'])}{unit} | {c['case']} | {s['rung']}, {size} | "
+                        f"{s['cpu_hours']:.2f} | {c['verdict']} |")
+    return "\n".join(rows) + "\n"
+
+
+README_HEAD = """# Validation record
+
+Each scene's headline numbers against its paper, at the `{rung}` rung: the finest these
+2-core machines afford (each case at most ~1.5 h on 2 cores). Written by `make validate`
+(`snakemake --configfile config/validation.yaml --cores 2 --set-threads simulate=1 validate`),
+which reruns the campaign `config/validation.yaml` (every simulation resumes from its last
+restart, so it can be split over sittings) and rewrites this folder. Do not edit by hand.
+
+- **ours ± error**: one standard error that knows about correlation: the series of the
+  quantity over consecutive sub-windows of the averaging window, its statistical inefficiency
+  g (integrated autocorrelation time, `emcee.autocorr.integrated_time`) and
+  se = sd·sqrt(g/n) (`postproc.autocorr`); the block error stays in `summary.json` as a
+  cross-check. Fit parameters carry the fit's standard errors.
+- **verdict**: *within error* when the paper's value (or the nearest end of its range) lies
+  within {sigmas:g} combined standard errors of ours; otherwise *differs by* the relative amount and
+  the number of standard errors. A quantity the paper gives only as a shape is compared in
+  words (see the note in `<scene>/checks.csv`). Nothing was tuned to match a paper.
+- Each `<scene>/summary.json` carries the granflow commit and the LAMMPS version of its runs,
+  each case's status, particles, largest overlap and CPU-hours; `<scene>/logs/` has the key
+  LAMMPS log lines, `<scene>/profiles/` the profiles its figures show, `<scene>/figures/` the
+  figures.
+
+"""
+
+
+def write_readme(folder: Path) -> str:
+    """Write ``folder/README.md`` from every ``folder/<scene>/summary.json``; return the text."""
+    folder = Path(folder)
+    summaries = [json.loads(p.read_text()) for p in sorted(folder.glob("*/summary.json"))]
+    for s in summaries:
+        for c in s["checks"]:
+            for key in ("ours", "error", "difference"):
+                c[key] = float("nan") if c.get(key) is None else c[key]
+        for c in s["cases"]:
+            c["cpu_hours"] = float("nan") if c.get("cpu_hours") is None else c["cpu_hours"]
+    rungs = sorted({s["rung"] for s in summaries}) or ["validation"]
+    text = README_HEAD.format(rung=", ".join(rungs), sigmas=SIGMAS)
+    text += readme_table(summaries) + "\n"
+    text += "## Cost\n\n| scene | cases | particles | CPU-hours | commit | LAMMPS |\n|---|---|---|---|---|---|\n"
+    for s in summaries:
+        parts = [c["particles"] for c in s["cases"] if c.get("particles")]
+        size = f"{min(parts):,}–{max(parts):,}" if parts else "–"
+        text += (f"| {s['scene']} | {len(s['cases'])} | {size} | {s['cpu_hours']:.2f} | "
+                 f"{', '.join(c[:10] for c in s['granflow_commits'])} | {', '.join(s['lammps_versions'])} |\n")
+    total = sum(s["cpu_hours"] for s in summaries)
+    text += f"| all | {sum(len(s['cases']) for s in summaries)} | | {total:.2f} | | |\n\n"
+    text += "## Cases\n\n| scene | case | status | particles | largest overlap (of d_min) | CPU-h |\n|---|---|---|---|---|---|\n"
+    for s in summaries:
+        for c in s["cases"]:
+            ov = c.get("max_overlap")
+            ov = f"{100 * ov:.2f} %" if isinstance(ov, (int, float)) else "–"
+            text += (f"| {s['scene']} | {c['dir']} | {c['status']} | {c.get('particles') or '–'} | {ov} | "
+                     f"{c['cpu_hours']:.2f} |\n")
+    text += "\n## What differs from the papers\n\n"
+    for s in summaries:
+        text += f"### {s['scene']} ({s.get('paper', '')})\n\n"
+        text += "".join(f"- {d}\n" for d in s["differences"]) or "- nothing stated\n"
+        text += "\n"
+    (folder / "README.md").write_text(text)
+    return text

@@ -1,0 +1,83 @@
+"""The generic validation record: verdicts, the written record and its README table."""
+import json
+import math
+
+import pandas as pd
+import pytest
+
+from granflow import validation
+from granflow.validation import Check, ValidationResult, verdict
+
+
+def test_inside_the_range_is_within_whatever_the_error():
+    words, diff = verdict(1.385, float("nan"), (1.37, 1.40))
+    assert words == "within the paper's range" and diff == 0.0
+
+
+def test_difference_is_measured_to_the_nearest_end_of_the_range():
+    words, diff = verdict(1.21, 0.01, (1.37, 1.40))
+    assert diff == pytest.approx(1.21 / 1.37 - 1)          # -11.7 %
+    assert words.startswith("differs by -11.7 %") and "(16 σ)" in words
+
+
+def test_within_two_combined_errors_counts_the_papers_error_too():
+    # 0.63 against 0.60 +- 0.02: 0.03 off; our 0.01 alone gives 3 sigma, combined sqrt(0.01^2+0.02^2) 1.3 sigma
+    assert verdict(0.63, 0.01, (0.60, 0.60))[0].startswith("differs")
+    words, _ = verdict(0.63, 0.01, (0.60, 0.60), paper_error=0.02)
+    assert words == "within error (1.3 σ)"
+
+
+def test_no_error_and_outside_says_so_and_shapes_are_words():
+    assert verdict(2.0, float("nan"), (1.0, 1.0))[0] == "differs by +100.0 % (no statistical error)"
+    assert verdict(2.0, 0.1, None)[0] == "shape compared (see note)"
+    words, diff = verdict(float("nan"), 0.1, (1.0, 1.0))
+    assert words == "not measured" and math.isnan(diff)
+
+
+def _case(tmp_path, rel, cpu_s, overlap):
+    case = tmp_path / "results" / rel
+    (case / "run" / "logs").mkdir(parents=True)
+    (case / "params.json").write_text(json.dumps({"scene": "toy", "rung": "validation", "case": {"x": 1},
+                                                  "n_particles": 1000}))
+    (case / "run" / "status.json").write_text(json.dumps({"status": "steady", "reason": "flat",
+                                                         "cpu_seconds": cpu_s, "wall_seconds": cpu_s,
+                                                         "nprocs": 1, "max_overlap": overlap}))
+    (case / "run" / "logs" / "flow_001.log").write_text(
+        "LAMMPS (22 Jul 2025 - Update 1)\nLoop time of 1.0 on 1 procs\nWARNING: something\nLoop time of 2.0 on 1 procs\n")
+    return case
+
+
+def test_record_and_readme(tmp_path):
+    cases = {"x~1": _case(tmp_path, "x~1", 3600.0, 0.004), "x~2": _case(tmp_path, "x~2", 7200.0, 0.02)}
+    figs = tmp_path / "figs"
+    figs.mkdir()
+    (figs / "f1.png").write_bytes(b"\x89PNG fake")
+    result = ValidationResult(
+        checks=[Check("ratio", "1.37-1.40", "Fig. 5c", 1.21, 0.01, case="x~1", paper_range=(1.37, 1.40)),
+                Check("balance", "1 (exact)", "§2", 1.001, 0.002, case="x~2", paper_range=(1, 1))],
+        profiles={"p": pd.DataFrame({"x": [0.0, 1.0], "u": [0.1, 0.2]})}, figures=["f1", "missing"],
+        differences=["thin box: B = 5 instead of 40"])
+    out = tmp_path / "validation" / "toy"
+    summary = validation.write_record("toy", "validation", result, cases, figs, out, paper="Someone 2020")
+    assert summary["cpu_hours"] == pytest.approx(3.0)
+    assert summary["figures"] == ["figures/f1.png"]
+    assert [c["dir"] for c in summary["cases"]] == ["x~1", "x~2"]
+    assert summary["lammps_versions"] == ["LAMMPS (22 Jul 2025 - Update 1)"]
+    saved = json.loads((out / "summary.json").read_text())
+    assert saved["checks"][1]["verdict"] == "within error (0.5 σ)"
+    log = (out / "logs" / "x~1.txt").read_text()
+    assert "status: steady: flat" in log and "Loop time of 2.0" in log and "WARNING: something" in log
+    assert pd.read_csv(out / "profiles" / "p.csv")["u"].tolist() == [0.1, 0.2]
+    text = validation.write_readme(tmp_path / "validation")
+    assert "| toy | ratio | 1.37-1.40 (Fig. 5c) | 1.210 ± 0.010 | x~1 |" in text
+    assert "differs by -11.7 %" in text and "thin box: B = 5 instead of 40" in text
+    assert "| toy | x~2 | steady | 1000 | 2.00 % | 2.00 |" in text
+
+
+def test_a_record_over_the_size_limit_is_refused(tmp_path, monkeypatch):
+    cases = {"x~1": _case(tmp_path, "x~1", 10.0, 0.001)}
+    monkeypatch.setattr(validation, "MAX_SCENE_BYTES", 2000)
+    big = pd.DataFrame({"x": range(2000)})
+    with pytest.raises(ValueError, match="validation record of toy is .* MB: allowed"):
+        validation.write_record("toy", "validation", ValidationResult([], profiles={"big": big}), cases,
+                                tmp_path, tmp_path / "validation" / "toy")

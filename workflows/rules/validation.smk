@@ -1,0 +1,54 @@
+# The validation record: each scene's headline numbers against its paper (granflow.validation and
+# each scene's Scene.validation). `make validate` runs config/validation.yaml and writes the
+# committed record validation/<scene>/ and validation/README.md. A campaign at another rung
+# writes its record under <results>/validation_<rung>/ instead, so a demo run never overwrites
+# the committed one. Included after scenes.smk and provenance.smk.
+VALIDATION_DIR = "validation" if RUNG == "validation" else f"{RESULTS}/validation_{RUNG}"
+
+
+def validation_targets():
+    """The record's README (after every enabled scene's record)."""
+    return [f"{VALIDATION_DIR}/README.md"] if any(scene_cases(name) for name in SCENES) else []
+
+
+def scene_figures(wildcards):
+    return [f"{RESULTS}/{wildcards.scene}/{RUNG}/figures/{f}.png" for f in SCENES[wildcards.scene].figures]
+
+
+def scene_case_dirs(wildcards):
+    return {case: f"{RESULTS}/{wildcards.scene}/{RUNG}/{case}" for case in scene_cases(wildcards.scene)}
+
+
+rule validation_record:
+    """One scene's record: summary.json (checks, cases, commit, LAMMPS version, CPU-hours),
+    checks.csv, profiles, figures and key log lines."""
+    input:
+        table=SCENE_DIR + "/table.csv",
+        provenance=SCENE_DIR + "/provenance.csv",
+        analyses=all_analyses,
+        figures=scene_figures,
+    output:
+        summary=VALIDATION_DIR + "/{scene}/summary.json",
+        checks=report(VALIDATION_DIR + "/{scene}/checks.csv", caption="../report/validation.rst",
+                      category="validation", subcategory="{scene}"),
+    params:
+        cases=scene_case_dirs,
+        scene_dir=SCENE_DIR,
+        rung=RUNG,
+    log:
+        SCENE_DIR + "/logs/validation.log",
+    script:
+        "../scripts/validation_record.py"
+
+
+rule validation_readme:
+    """validation/README.md: one table over every scene's record (those of this run and any
+    committed before), the differences from the papers and the CPU-hours."""
+    input:
+        summaries=[f"{VALIDATION_DIR}/{name}/summary.json" for name in SCENES if scene_cases(name)],
+    output:
+        readme=VALIDATION_DIR + "/README.md",
+    log:
+        f"{RESULTS}/logs/validation_readme_{RUNG}.log",
+    script:
+        "../scripts/validation_readme.py"

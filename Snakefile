@@ -20,10 +20,12 @@ include: "workflows/rules/validation.smk"
 
 
 rule all:
-    """Every enabled scene's table, figures and provenance (scenes are found through granflow's registry)."""
+    """Every enabled scene's table, figures and provenance (scenes are found through granflow's registry),
+    and the committed validation record's tables for the report."""
     input:
         scene_targets(),
         provenance_targets(),
+        validation_report_targets(),
 
 
 rule cost:

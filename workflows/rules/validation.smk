@@ -52,3 +52,22 @@ rule validation_readme:
         f"{RESULTS}/logs/validation_readme_{RUNG}.log",
     script:
         "../scripts/validation_readme.py"
+
+
+def validation_report_targets():
+    """The committed record's check tables, shown in the report of any campaign (section "validation")."""
+    found = sorted(p.parent.name for p in Path(workflow.basedir, "validation").glob("*/checks.csv"))
+    return [f"{RESULTS}/report/validation/{name}.csv" for name in found]
+
+
+rule validation_report:
+    """Copy a committed record's checks.csv into the report (the record itself stays as committed)."""
+    input:
+        checks="validation/{recorded}/checks.csv",
+    output:
+        checks=report(RESULTS + "/report/validation/{recorded}.csv", caption="../report/validation_record.rst",
+                      category="validation", subcategory="{recorded}"),
+    wildcard_constraints:
+        recorded=r"[a-z_]+",
+    shell:
+        "cp {input.checks} {output.checks}"

@@ -11,7 +11,7 @@ from granflow.preflight import PreflightError
 from granflow.scenes.chute import SCENE
 from granflow.scenes.chute.parameters import STAGES, chute_parameters
 
-RUNGS = ("smoke", "demo", "study", "paper")
+RUNGS = ("smoke", "demo", "study", "paper", "validation")
 
 
 @pytest.fixture(scope="module")

@@ -58,7 +58,7 @@ def test_monodisperse_has_one_type(channel_scene, tmp_path):
 
 
 @pytest.mark.lammps
-@pytest.mark.parametrize("rung", ["smoke", "demo", "study", "paper"])
+@pytest.mark.parametrize("rung", ["smoke", "demo", "study", "paper", "validation"])
 def test_every_rung_passes_skiprun(channel_scene, tmp_path, skiprun, rung):
     """Each stage's deck parses and sets up in LAMMPS (-skiprun skips the runs; the packing check needs a run)."""
     render_case(channel_scene, rung, tmp_path)

@@ -82,7 +82,7 @@ def test_bidisperse_deck_pours_two_types(heap_scene, tmp_path):
 
 
 @pytest.mark.lammps
-@pytest.mark.parametrize("rung", ["smoke", "demo", "study", "paper"])
+@pytest.mark.parametrize("rung", ["smoke", "demo", "study", "paper", "validation"])
 def test_every_rung_passes_skiprun(heap_scene, tmp_path, skiprun, rung):
     """Each stage parses and sets up in LAMMPS; fix pour plans exactly our nper and nfreq."""
     record = render_case(heap_scene, rung, tmp_path, SMOKE_CASE if rung == "smoke" else None)

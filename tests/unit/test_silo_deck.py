@@ -99,7 +99,7 @@ def test_effects_off_means_commands_absent(silo_scene, tmp_path, effect, absent)
 
 
 @pytest.mark.lammps
-@pytest.mark.parametrize("rung", ["smoke", "demo", "study", "paper"])
+@pytest.mark.parametrize("rung", ["smoke", "demo", "study", "paper", "validation"])
 def test_every_rung_passes_skiprun(silo_scene, tmp_path, skiprun, rung):
     """Both stages parse and set up in LAMMPS with the gas, the rim and the open orifice.
 

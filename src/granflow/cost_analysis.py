@@ -3,7 +3,8 @@
 For each scene (channel, heap, silo) one fidelity *knob* is varied at a time
 around a shared base case (``dt_fraction``, ``stiffness``, ``size``,
 ``t_average``, ``bin_width``).  Every run point reports headline observables
-with block-average standard errors and its cost.  This module turns those
+with standard errors that allow for autocorrelation (:mod:`granflow.headline`)
+and its cost.  This module turns those
 records into
 
 * errors of each observable against the knob's finest setting, with the
@@ -25,8 +26,13 @@ observable), with columns
     ``"max"``);
 ``observable, label, x, se``
     observable name, human label, measured value (NaN when the run failed or
-    the observable could not be measured) and its block standard error (may
-    be NaN);
+    the observable could not be measured) and its standard error (may be
+    NaN): that of the mean of sub-window values with their statistical
+    inefficiency, or the block error where too few sub-windows were
+    measurable (:func:`granflow.headline.measure_with_errors`);
+``se_block, g`` (optional, carried through)
+    the block standard error (the cross-check) and the statistical
+    inefficiency of the sub-window values;
 ``cpu_s, sim_cpu_s, post_cpu_s, loop_s, peak_mb``
     total CPU-seconds of the point (simulation + post-processing), their two
     parts, the LAMMPS loop wall time and the peak memory;
@@ -106,7 +112,7 @@ def knob_errors(records: pd.DataFrame, noise_sigmas: float = 2.0) -> pd.DataFram
     .. math:: e = \\frac{x - x_{ref}}{|x_{ref}|}, \\qquad
               n = \\frac{\\sqrt{s^2 + s_{ref}^2}}{|x_{ref}|}
 
-    with :math:`s` the block standard errors (a NaN ``se`` counts as 0 and
+    with :math:`s` the standard errors ``se`` (a NaN ``se`` counts as 0 and
     sets ``se_missing``).  A difference is *significant* when
     :math:`|e| > k n` with :math:`k` = ``noise_sigmas``.  The reference row
     has :math:`e = 0`, :math:`n = s_{ref}/|x_{ref}|` and is never

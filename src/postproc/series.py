@@ -10,7 +10,9 @@ Four steps take any cumulative quantity to a steady rate:
 * :func:`steady_window` finds the steady part of *any* series (a rate, a
   velocity, ...) after a start-up excluded by an explicit rule that the
   result states in words (:attr:`SteadyWindow.rule`);
-* :func:`steady_rate` is the rate of the cumulative series over that window.
+* :func:`steady_rate` is the rate of the cumulative series over that window,
+  with an error that allows for autocorrelation (:func:`steady_rate_errors`,
+  :mod:`postproc.autocorr`).
 
 Scenes keep their own names (thermo columns, units) in thin wrappers; every
 function here takes arrays.
@@ -23,6 +25,8 @@ from typing import Iterable
 
 import numpy as np
 import pandas as pd
+
+from .autocorr import combined_error, mean_error
 
 #: Columns of :func:`rate_series`.
 RATE_COLUMNS = ("t", "t_lo", "t_hi", "n", "rate", "rate_se")
@@ -241,17 +245,37 @@ def rate_series(t, m, window: float) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=list(RATE_COLUMNS))
 
 
-def steady_rate(t, m, t_start: float, t_end: float, n_blocks: int = 4) -> tuple[float, float]:
-    """Rate of a cumulative series over a (steady) window, with a block standard error.
+def subwindow_slopes(t, m, t_start: float, t_end: float, n: int) -> np.ndarray:
+    """Least-squares slopes of ``m(t)`` in ``n`` equal sub-windows of ``[t_start, t_end]`` (closed; NaN where
+    a sub-window holds fewer than two samples)."""
+    t = np.asarray(t, dtype=float)
+    m = np.asarray(m, dtype=float)
+    edges = np.linspace(t_start, t_end, int(n) + 1)
+    return np.asarray([linear_fit(t[(t >= a) & (t <= b)], m[(t >= a) & (t <= b)])[0]
+                       for a, b in zip(edges[:-1], edges[1:])], dtype=float)
 
-    The rate is the least-squares slope of :math:`m(t)` over
-    :math:`t_{start} \\le t \\le t_{end}`; its standard error is the block
-    standard error of the slopes in ``n_blocks`` equal sub-windows,
 
-    .. math:: \\mathrm{se} = \\frac{\\operatorname{std}_{ddof=1}(\\dot m_b)}{\\sqrt{n_b}},
+def steady_rate_errors(t, m, t_start: float, t_end: float, n_blocks: int = 4, n_series: int = 16) -> dict:
+    """Rate of a cumulative series over a (steady) window, with an error that allows for autocorrelation.
 
-    which is honest about correlated fluctuations longer than the sampling
-    interval but shorter than a sub-window.
+    The rate :math:`\\dot m` is the least-squares slope of :math:`m(t)` over
+    :math:`t_{start} \\le t \\le t_{end}`.  Its standard error comes from the
+    slopes :math:`\\dot m_k` of ``n_series`` equal sub-windows and their
+    statistical inefficiency :math:`g` (:func:`postproc.autocorr.mean_error`),
+
+    .. math:: \\mathrm{se} = \\sqrt{g}\\,\\frac{\\operatorname{std}_{ddof=1}(\\dot m_k)}{\\sqrt{n}} ,
+
+    so fluctuations of the rate shorter than a sub-window enter through the
+    scatter of the slopes and longer ones through :math:`g`.  For a
+    cumulative counter (noise in the increments, as for deleted mass) the mean
+    of the sub-window slopes has the variance of the full-window slope; noise
+    added to :math:`m` itself would make this error too large.  The block
+    error of ``n_blocks`` sub-windows (the former error) is kept as a
+    cross-check,
+
+    .. math:: \\mathrm{se}_{block} = \\frac{\\operatorname{std}_{ddof=1}(\\dot m_b)}{\\sqrt{n_b}} ,
+
+    and is the error when fewer than 4 sub-window slopes are finite.
 
     Parameters
     ----------
@@ -260,12 +284,22 @@ def steady_rate(t, m, t_start: float, t_end: float, n_blocks: int = 4) -> tuple[
     t_start, t_end : float
         The window, e.g. from :func:`steady_window`.
     n_blocks : int
-        Number of sub-windows (at least 2); reduced when there are fewer than
-        3 samples per sub-window.
+        Number of blocks of the cross-check (at least 2); reduced when there
+        are fewer than 3 samples per block.
+    n_series : int
+        Number of sub-windows of the error; reduced when there are fewer than
+        3 samples per sub-window.  Fewer than 4 (e.g. 0) gives the block
+        error alone, as before the autocorrelation analysis.
 
     Returns
     -------
-    rate, rate_se : float
+    dict
+        ``rate``; ``se`` and ``se_method`` (``"autocorrelation"``,
+        ``"max(autocorrelation, block)"`` while :math:`g` is not reliable, or
+        ``"block"``: :func:`postproc.autocorr.combined_error`); ``se_block`` and ``n_blocks`` (finite block slopes);
+        ``g`` (in sub-windows), ``n`` (finite sub-window slopes), ``reliable``
+        (:math:`n \\ge 50 g`, emcee's criterion) and ``se_naive`` (the error
+        of the sub-window slopes as if independent).
 
     Raises
     ------
@@ -283,14 +317,43 @@ def steady_rate(t, m, t_start: float, t_end: float, n_blocks: int = 4) -> tuple[
         raise ValueError(f"only {len(t)} samples between t = {t_start:.4g} and {t_end:.4g}")
     rate = linear_fit(t, m)[0]
     n_blocks = min(int(n_blocks), len(t) // 3)
-    if n_blocks < 2:
-        return rate, np.nan
-    edges = np.linspace(t_start, t_end, n_blocks + 1)
-    slopes = np.asarray([linear_fit(t[(t >= a) & (t <= b)], m[(t >= a) & (t <= b)])[0]
-                         for a, b in zip(edges[:-1], edges[1:])])
-    slopes = slopes[np.isfinite(slopes)]
-    se = float(np.std(slopes, ddof=1) / np.sqrt(len(slopes))) if len(slopes) >= 2 else np.nan
-    return rate, se
+    blocks = subwindow_slopes(t, m, t_start, t_end, n_blocks) if n_blocks >= 2 else np.empty(0)
+    blocks = blocks[np.isfinite(blocks)]
+    se_block = float(np.std(blocks, ddof=1) / np.sqrt(len(blocks))) if len(blocks) >= 2 else np.nan
+    n_series = min(int(n_series), len(t) // 3)
+    e = mean_error(subwindow_slopes(t, m, t_start, t_end, n_series) if n_series >= 1 else np.empty(0))
+    se, method = combined_error(e, se_block)
+    return {"rate": rate, "se": se, "se_method": method,
+            "se_block": se_block, "n_blocks": int(len(blocks)), "g": e.g, "n": e.n, "reliable": e.reliable,
+            "se_naive": e.se_naive}
+
+
+def steady_rate(t, m, t_start: float, t_end: float, n_blocks: int = 4, n_series: int = 16) -> tuple[float, float]:
+    """Rate of a cumulative series over a (steady) window and its standard error.
+
+    ``(rate, se)`` of :func:`steady_rate_errors`: the least-squares slope
+    over :math:`t_{start} \\le t \\le t_{end}` and the error of the slopes of
+    ``n_series`` sub-windows with their statistical inefficiency,
+
+    .. math:: \\mathrm{se} = \\sqrt{g}\\,\\frac{\\operatorname{std}_{ddof=1}(\\dot m_k)}{\\sqrt{n}}
+
+    (the block error of ``n_blocks`` sub-windows when fewer than 4
+    sub-window slopes are finite, or with ``n_series=0``: the former
+    error).  :func:`steady_rate_errors` also returns the block error,
+    :math:`g` and the counts.
+
+    Returns
+    -------
+    rate, rate_se : float
+
+    Raises
+    ------
+    ValueError
+        When the window is empty or not finite ("no steady window"), or holds
+        fewer than 3 samples.
+    """
+    out = steady_rate_errors(t, m, t_start, t_end, n_blocks=n_blocks, n_series=n_series)
+    return out["rate"], out["se"]
 
 
 # --------------------------------------------------------------------------- steady window

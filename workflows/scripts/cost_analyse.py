@@ -1,4 +1,4 @@
-"""Adapter: headline observables of one point of the cost study, with block errors and the cost it took."""
+"""Adapter: headline observables of one point of the cost study, with their errors and the cost it took."""
 import json
 import os
 import sys
@@ -22,7 +22,9 @@ if status["dumps"] and status["status"] not in ("jammed", "unstable"):
 else:
     from granflow import registry
 
-    obs = {k: {"x": float("nan"), "se": float("nan"), "n_blocks": 0, "label": lab}
+    nan = float("nan")
+    obs = {k: {"x": nan, "se": nan, "se_method": "block", "se_block": nan, "n_blocks": 0, "g": nan, "n_series": 0,
+               "reliable": False, "label": lab}
            for k, lab in registry.get(scene).headline}
     obs["window"] = [float("nan"), float("nan")]
     note = f"not measured: {status['status']}: {status.get('reason')}"

@@ -43,6 +43,9 @@ for obs_path, post_path in zip(snakemake.input.observables, snakemake.input.post
                 "scene": scene, "knob": knob, "value": value, "is_base": p["knob"] is None,
                 "finest": study["finest"][knob], "unit": study["units"][knob], "point": p["name"], "run": p["run"],
                 "observable": key, "label": o["label"], "x": o["x"], "se": o["se"], "n_blocks": o["n_blocks"],
+                # the cross-check and the statistical inefficiency (absent from points measured before them)
+                "se_method": o.get("se_method", "block"), "se_block": o.get("se_block", o["se"]),
+                "g": o.get("g", float("nan")), "n_series": o.get("n_series", 0),
                 "cpu_s": sim_cpu + post_cpu, "sim_cpu_s": sim_cpu, "post_cpu_s": post_cpu,
                 "loop_s": point["loop_s"], "run_wall_s": sim_wall[p["run"]], "peak_mb": max(sim_rss, post_rss), "n_particles": point["n_particles"],
                 "atom_steps": point["atom_steps"], "sim_time": point["sim_time"], "dt": point["dt"],

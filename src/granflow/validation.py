@@ -166,7 +166,8 @@ def case_summary(case_dir: Path) -> dict:
         "cpu_hours": cpu / 3600.0 if isinstance(cpu, (int, float)) else float("nan"),
         "wall_hours": (prov["wall_seconds"] / 3600.0 if isinstance(prov.get("wall_seconds"), (int, float))
                        else float("nan")),
-        "particles": record.get("n_particles") or record.get("n_particles_estimate"),
+        "particles": (record.get("n_particles") or (record.get("parameters") or {}).get("n_particles")
+                      or record.get("n_particles_estimate")),
         "max_overlap": status.get("max_overlap"),
     }
 

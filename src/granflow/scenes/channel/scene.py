@@ -160,6 +160,13 @@ class ChannelScene(Scene):
 
         return self.averaged_window(channel_observables, case_dir, record, t_average, block)
 
+    # -- the validation record ---------------------------------------------------------
+    def validation(self, scene_dir: Path, cases: dict[str, Path]):
+        """Checks against Debnath et al. (2022): :func:`granflow.scenes.channel.validation.validation`."""
+        from .validation import validation
+
+        return validation(scene_dir, cases)
+
     def paper_reference(self, scene: dict) -> dict:
         _, context = self.parameters(scene, "paper")
         rec = context["record"]

@@ -187,6 +187,13 @@ class ChuteScene(Scene):
         checks["stress_ratio_over_tan"] = checks["stress_ratio_error"] + 1.0
         return {key: finite(checks.get(key)) for key, _ in self.headline}, window
 
+    # -- the validation record ----------------------------------------------------------
+    def validation(self, scene_dir: Path, cases: dict[str, Path]):
+        """Checks against Silbert et al. (2001): :func:`granflow.scenes.chute.validation.validation`."""
+        from .validation import validation
+
+        return validation(scene_dir, cases)
+
     def paper_reference(self, scene: dict) -> dict:
         params, context = chute_parameters(scene, "paper")
         rec = context["record"]

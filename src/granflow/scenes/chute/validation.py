@@ -1,0 +1,362 @@
+"""The chute's validation record: its numbers against Silbert et al. (2001), Phys. Rev. E 64, 051302.
+
+The paper's text is not held; its facts are those of SPEC.md ("Scene 4: chute"). :func:`validation`
+builds the scene's :class:`~granflow.validation.ValidationResult` from what each case's analysis
+wrote (``analysis/scalars.json``, ``analysis/profile.csv``, ``run/status.json``) and the errors of
+the time averages (:func:`granflow.headline.measure_with_errors`, which re-reads the dumps of the
+averaging window in blocks). Per steady case it compares
+
+* the bulk stress ratio :math:`-\\sigma_{xz}/\\sigma_{zz}` with :math:`\\tan\\theta` (exact in steady
+  uniform flow), as the ratio over :math:`\\tan\\theta`;
+* :math:`\\sigma_{zz}` with the weight of the material above, :math:`g\\cos\\theta\\int_z^h\\rho\\,dz'` (exact);
+* the Bagnold profile :math:`u \\propto h^{3/2} - (h - z)^{3/2}` in the bulk (a shape: R² and the relative
+  rms residual, no paper number);
+* the bulk volume fraction (nearly uniform in the bulk) and, over the sweep, whether it is lower at the
+  larger angle;
+
+and says for every angle whether its regime (arrested, steady, accelerating) is the paper's.
+A case that was not averaged in a steady state gets NaN and the reason in each note.
+Units: :math:`d`, :math:`m`, :math:`\\sqrt{d/g}`.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from granflow.headline import measure_with_errors
+from granflow.registry import finite
+from granflow.validation import Check, ValidationResult
+
+from .analysis import bulk_mask
+
+NAN = float("nan")
+SOURCE = "Silbert 2001 (per SPEC.md)"
+#: the paper's contact model and time step (SPEC.md): k_n in m g/d, gamma_n in sqrt(g/d), dt in sqrt(d/g)
+PAPER_K_N, PAPER_GAMMA_N, PAPER_DT = 2.0e5, 50.0, 1.0e-4
+#: the paper's pair contact time, pi / sqrt(k_n/m_eff - gamma_n^2/4) with m_eff = m/2 (LAMMPS gran/hooke damping)
+PAPER_T_C = math.pi / math.sqrt(PAPER_K_N / 0.5 - PAPER_GAMMA_N**2 / 4.0)
+#: the regimes (SPEC.md): the bed stops below theta_stop (~20 deg for H ~ 20-40 d), flows steadily up to ~24-26 deg
+THETA_STOP, STEADY_TOP = 20.0, (24.0, 26.0)
+#: largest contact overlap, fraction of the diameter, above which the record says so
+OVERLAP_LIMIT = 0.01
+#: the figures of the rung kept in the record (names of ChuteScene.figures)
+FIGURES = ["fig_profiles", "fig_stress", "fig_regimes"]
+
+
+# ------------------------------------------------------------------------- one case
+@dataclass
+class ChuteCase:
+    """What the record reads of one finished case.
+
+    ``why_not`` is empty for a case averaged in a steady state, else why it has no numbers;
+    ``profile`` is ``analysis/profile.csv`` (None without one).
+    """
+
+    name: str
+    path: Path
+    record: dict
+    status: dict
+    scalars: dict
+    why_not: str
+    profile: pd.DataFrame | None = None
+
+    @property
+    def theta(self) -> float:
+        return float(self.record["parameters"]["theta_deg"])
+
+    def value(self, key: str) -> float:
+        return finite(self.scalars.get(key))
+
+    def bulk(self) -> np.ndarray:
+        """The analysis' bulk bins of the profile (``bulk_margin`` from base and surface)."""
+        return bulk_mask(self.profile, self.value("z_base"), self.value("z_surface"),
+                         float(self.record["rung_knobs"]["bulk_margin"]))
+
+
+def load_case(name: str, path: Path) -> ChuteCase:
+    """Read a case's record, status, scalars and profile; say why it cannot be compared, if so."""
+    path = Path(path)
+    record = json.loads((path / "params.json").read_text())
+    status = json.loads((path / "run" / "status.json").read_text())
+    scalars_path = path / "analysis" / "scalars.json"
+    scalars = json.loads(scalars_path.read_text()) if scalars_path.exists() else {}
+    why_not = ""
+    if status.get("status") != "steady":
+        why_not = f"not measured: {status.get('status')}: {status.get('reason')}"
+        if status.get("dumps"):
+            why_not += " (the frames it averaged anyway are in table.csv, not compared: no steady average)"
+    elif not status.get("dumps"):
+        why_not = "not measured: steady but no averaged frames"
+    elif not scalars:
+        why_not = "not measured: no analysis/scalars.json"
+    profile = None
+    profile_path = path / "analysis" / "profile.csv"
+    if not why_not and profile_path.exists():
+        profile = pd.read_csv(profile_path)
+        if profile.empty:
+            profile = None
+    if not why_not and profile is None:
+        why_not = "not measured: no analysis/profile.csv"
+    return ChuteCase(name, path, record, status, scalars, why_not, profile)
+
+
+def time_average_errors(case: ChuteCase) -> dict:
+    """Headline values with their time-average errors over the rung's averaging window.
+
+    :func:`granflow.headline.measure_with_errors` with 4 blocks; ``{"why": ...}`` when the case
+    has no steady average or its dumps cannot be read.
+    """
+    if case.why_not:
+        return {"why": case.why_not}
+    try:
+        return measure_with_errors("chute", case.path, case.record, case.record["rung_knobs"]["t_average"],
+                                   n_blocks=4)
+    except (OSError, ValueError) as err:  # dumps removed or unreadable: values stay, errors are NaN
+        return {"why": f"no time-average error: {type(err).__name__}: {err}"}
+
+
+def error_note(entry: dict | None, why: str = "") -> str:
+    """Which error a check carries, from an entry of :func:`time_average_errors`."""
+    if not entry or not math.isfinite(entry.get("se", NAN)):
+        return f"error: none ({why or 'no finite block values'})"
+    method = entry.get("se_method", "block")
+    if method == "autocorrelation":
+        text = (f"error: autocorrelation-aware standard error of the time average (statistical inefficiency "
+                f"g = {entry.get('g', NAN):.2g} over {entry.get('n_series', '?')} sub-blocks")
+        if entry.get("reliable") is False:
+            text += "; fewer than 50 g sub-blocks, so g may be underestimated"
+        text += ")"
+        if math.isfinite(entry.get("se_block", NAN)):
+            text += f"; {entry.get('n_blocks')}-block error {entry['se_block']:.2g}"
+        return text
+    return f"error: {method} standard error of the time average ({entry.get('n_blocks')} blocks)"
+
+
+# ------------------------------------------------------------------------- measures on the profile
+def weight_deviation(case: ChuteCase) -> tuple[float, float, int]:
+    """Mean over the bulk bins of :math:`(\\sigma_{zz} - W)/W`, :math:`W` the weight above (the
+    analysis' ``weight_above``), its error and the number of bins.
+
+    The error is the mean of the bins' :math:`\\mathrm{se}(\\sigma_{zz})/W` (the profile's 8-block
+    errors, bins taken as fully correlated: an upper bound; not autocorrelation-aware).
+    """
+    p, bulk = case.profile, case.bulk()
+    szz, weight = p["sigma_zz"].to_numpy(float)[bulk], p["weight_above"].to_numpy(float)[bulk]
+    ok = np.isfinite(szz) & (weight > 0)
+    if not ok.any():
+        return NAN, NAN, 0
+    se = p["sigma_zz_se"].to_numpy(float)[bulk][ok] / weight[ok] if "sigma_zz_se" in p else np.full(ok.sum(), NAN)
+    return float(np.mean((szz[ok] - weight[ok]) / weight[ok])), float(np.mean(se)), int(ok.sum())
+
+
+def bulk_phi_spread(case: ChuteCase) -> dict:
+    """Standard deviation, minimum and maximum of :math:`\\phi` over the bulk bins."""
+    phi = case.profile["phi"].to_numpy(float)[case.bulk()]
+    phi = phi[np.isfinite(phi)]
+    if len(phi) < 2:
+        return {"std": NAN, "min": NAN, "max": NAN, "n": int(len(phi))}
+    return {"std": float(np.std(phi, ddof=1)), "min": float(phi.min()), "max": float(phi.max()), "n": int(len(phi))}
+
+
+# ------------------------------------------------------------------------- the checks
+def case_checks(case: ChuteCase, errors: dict) -> list[Check]:
+    """The per-case checks (NaN, with the reason in the note, for a case without a steady average)."""
+    name, steady = case.name, not case.why_not
+    why = case.why_not or errors.get("why", "")
+
+    def se_of(key: str) -> tuple[float, str]:
+        entry = errors.get(key) if steady else None
+        return (entry["se"] if entry else NAN), (error_note(entry, why) if steady else why)
+
+    tan = math.tan(math.radians(case.theta))
+    bulk_text = (f"bulk: {int(case.value('n_bulk_bins'))} bins with centres z = {case.value('bulk_lo'):.3g}-"
+                 f"{case.value('bulk_hi'):.3g} d ({case.record['rung_knobs']['bulk_margin']:g} d from the base top "
+                 f"z0 = {case.value('z_base'):g} and from the surface, where φ = φ_bulk/2)" if steady else "")
+    checks = []
+
+    ratio = case.value("stress_ratio") / tan if steady else NAN
+    se, enote = se_of("stress_ratio_over_tan")
+    note = (f"mean of -σ_xz/σ_zz (total stress: contact + kinetic) over the {bulk_text}: "
+            f"{case.value('stress_ratio'):.4f} against tan θ = {tan:.4f}; the analysis' own error (bins' block "
+            f"errors or their scatter, the larger) {case.value('stress_ratio_se') / tan:.2g}; {enote}"
+            if steady else why)
+    checks.append(Check("bulk -σ_xz/σ_zz / tan θ", "1 (exact in steady uniform flow)",
+                        f"{SOURCE}: momentum balance", ratio, se, name, (1.0, 1.0), note=note))
+
+    if steady:
+        dev, dev_se, n = weight_deviation(case)
+        note = (f"mean over the {bulk_text} of (σ_zz - W)/W, W = g cos θ ∫_z ρ dz' (the analysis' weight_above); "
+                f"rms of the same over the bulk (the analysis' weight_residual) {case.value('weight_residual'):.2%}; "
+                f"error: the mean of the bins' 8-block errors of σ_zz over W (bins taken as fully correlated, "
+                f"an upper bound; not autocorrelation-aware)")
+    else:
+        dev, dev_se, note = NAN, NAN, why
+    checks.append(Check("σ_zz / weight above - 1 (bulk mean)", "0 (exact in steady uniform flow)",
+                        f"{SOURCE}: momentum balance", dev, dev_se, name, (0.0, 0.0), note=note))
+
+    if steady:
+        se_A, enote = se_of("bagnold_A")
+        note = (f"fit of u_x = A[h^(3/2) - (h - z)^(3/2)] over the {bulk_text}, "
+                f"h = {case.value('bagnold_H'):.3g} d the "
+                f"surface height above z0: relative rms residual {case.value('bagnold_rel_rms'):.2%}, A = "
+                f"{case.value('bagnold_A'):.4g} ± {se_A:.2g} √(g/d)/d^(3/2) ({enote}). The paper gives the shape (with "
+                f"deviations within a few d of base and surface), not a goodness of fit: no number is compared; "
+                f"R² has no statistical error")
+    else:
+        note = why
+    checks.append(Check("Bagnold profile: R² of the bulk fit",
+                        "u ∝ h^(3/2) - (h - z)^(3/2) in the bulk",
+                        f"{SOURCE}: Bagnold velocity profile", case.value("bagnold_r2") if steady else NAN, NAN,
+                        name, None, note=note))
+
+    se, enote = se_of("phi_bulk")
+    if steady:
+        spread = bulk_phi_spread(case)
+        note = (f"mean φ over the {bulk_text}; the bins' φ spread by {spread['std']:.3f} (std, "
+                f"{spread['std'] / case.value('phi_bulk'):.1%} of the mean), from {spread['min']:.3f} to "
+                f"{spread['max']:.3f}; {enote}")
+    else:
+        note = why
+    checks.append(Check("bulk φ", "nearly uniform in the bulk", f"{SOURCE}: packing profile",
+                        case.value("phi_bulk") if steady else NAN, se, name, None, note=note))
+    return checks
+
+
+def sweep_checks(loaded: list[ChuteCase], errors: dict[str, dict]) -> list[Check]:
+    """Bulk φ at the largest minus the smallest steady angle (paper: lower at larger θ)."""
+    steady = sorted((c for c in loaded if not c.why_not and math.isfinite(c.value("phi_bulk"))), key=lambda c: c.theta)
+    paper, source = "lower at larger θ", f"{SOURCE}: packing profile"
+    if len(steady) < 2 or steady[0].theta == steady[-1].theta:
+        return [Check("bulk φ(θ_max) - φ(θ_min)", paper, source, NAN, NAN, "sweep", None,
+                      note=f"needs two steady angles; steady: {', '.join(c.name for c in steady) or 'none'}")]
+    lo, hi = steady[0], steady[-1]
+    se_lo = (errors[lo.name].get("phi_bulk") or {}).get("se", NAN)
+    se_hi = (errors[hi.name].get("phi_bulk") or {}).get("se", NAN)
+    diff, se = hi.value("phi_bulk") - lo.value("phi_bulk"), math.hypot(se_lo, se_hi)
+    if diff < 0:
+        words = "ours is lower at the larger angle, as the paper"
+    else:
+        words = "ours is not lower at the larger angle, unlike the paper"
+    sig = f" ({abs(diff) / se:.1f} σ)" if math.isfinite(se) and se > 0 else ""
+    note = (f"φ_bulk = {lo.value('phi_bulk'):.4f} ± {se_lo:.2g} at {lo.theta:g}°, {hi.value('phi_bulk'):.4f} ± "
+            f"{se_hi:.2g} at {hi.theta:g}°: {words}{sig}; error: the two autocorrelation-aware errors combined")
+    return [Check("bulk φ(θ_max) - φ(θ_min)", paper, source, diff, se, "sweep", None, note=note)]
+
+
+# ------------------------------------------------------------------------- profiles
+def height_profile(case: ChuteCase) -> pd.DataFrame:
+    """Height profile of one case: :math:`u_x`, :math:`\\phi`, the stress ratio and the weight check."""
+    p = case.profile
+    cols = ["z", "phi", "phi_se", "u_x", "u_x_se", "u_bagnold", "stress_ratio", "sigma_xz", "sigma_xz_se",
+            "sigma_zz", "sigma_zz_se", "weight_above"]
+    out = p[[c for c in cols if c in p]].copy()
+    out.insert(0, "case", case.name)
+    out.insert(1, "theta", case.theta)
+    out.insert(3, "z_above_base", p["z"] - case.value("z_base"))
+    out.insert(4, "in_bulk", case.bulk())
+    out["tan_theta"] = math.tan(math.radians(case.theta))
+    return out
+
+
+# ------------------------------------------------------------------------- set-up differences
+def _sci(x: float, digits: int = 1) -> str:
+    """``2e5``, ``1.2e-4``: a number in the papers' short scientific form."""
+    mantissa, exponent = f"{float(x):.{digits - 1}e}".split("e")
+    return f"{mantissa}e{int(exponent)}"
+
+
+def expected_regime(theta: float) -> str:
+    """The paper's regime at ``theta`` for H ~ 20-40 d (SPEC.md)."""
+    if theta < THETA_STOP:
+        return "arrested"
+    if theta <= STEADY_TOP[0]:
+        return "steady"
+    if theta <= STEADY_TOP[1]:
+        return "steady or accelerating"
+    return "accelerating"
+
+
+def regime_line(case: ChuteCase) -> str:
+    """The regime of one angle against the paper's."""
+    status, expected = case.status.get("status"), expected_regime(case.theta)
+    if status in ("unstable", "no_steady_state") or status is None:
+        verdict = "regime not judged"
+    elif status in expected.split(" or "):
+        verdict = "as the paper"
+    else:
+        verdict = "differs from the paper"
+    return (f"{case.name}: regime {status} ({case.status.get('reason')}); paper at θ = {case.theta:g}°: {expected} "
+            f"(stops below θ_stop ≈ {THETA_STOP:g}° for H ≈ 20-40 d, higher for thinner beds; steady up to ≈ "
+            f"{STEADY_TOP[0]:g}-{STEADY_TOP[1]:g}°; accelerates above): {verdict}")
+
+
+def overlap_line(case: ChuteCase) -> str:
+    """The case's largest overlap against :data:`OVERLAP_LIMIT`, and what it means."""
+    ov = case.status.get("max_overlap")
+    if not isinstance(ov, (int, float)):
+        return f"{case.name}: largest overlap not recorded"
+    line = f"{case.name}: largest overlap {100 * ov:.4g} % of the diameter"
+    if ov <= OVERLAP_LIMIT:
+        return line + f" (within the {100 * OVERLAP_LIMIT:g} % limit)"
+    k_n = float(case.record["rung_knobs"]["k_n"])
+    if math.isclose(k_n, PAPER_K_N):
+        why = ("at the paper's k_n = 2e5 the overlap is set by the load (the weight above a contact), so the paper's "
+               "beds overlap alike at equal depth and more in its deeper ones")
+    else:
+        why = (f"k_n = {_sci(k_n)} is {PAPER_K_N / k_n:.3g}x softer than the paper's 2e5, so contacts overlap that "
+               f"much more than the paper's at equal depth")
+    return line + f", above the {100 * OVERLAP_LIMIT:g} % limit: {why}"
+
+
+def differences(loaded: list[ChuteCase]) -> list[str]:
+    """What differs from the paper's set-up (from each case's parameter record), and why."""
+    if not loaded:
+        return []
+    first = loaded[0]
+    k, p, proto = first.record["rung_knobs"], first.record["parameters"], first.record["protocol"]
+    dt, t_c = float(first.record["dt"]), float(p["t_c_min"])
+    out = [
+        f"box: {k['Lx']:g} x {k['Ly']:g} d periodic, bed H = {k['H']:g} d nominal, {p['n_particles']} particles "
+        f"(paper: 20 x 10 d lateral, as config/scenes/chute.yaml's rung paper records, H = 10-100 d): the smaller "
+        f"box affords the rung {first.record['rung']!r}; a narrower periodic cell fluctuates more",
+        f"contacts: k_n = {_sci(k['k_n'])} m g/d (paper {_sci(PAPER_K_N)}), "
+        f"γ_n = {p['xi_n']:.3g}, γ_t = {p['xi_t']:.3g}, "
+        f"μ = {p['friction']:g} (paper: 50, 0, 0.5); dt = {dt:.3g} √(d/g) = t_c/{t_c / dt:.1f} (paper: "
+        f"{_sci(PAPER_DT)} = t_c/{PAPER_T_C / PAPER_DT:.1f} at its k_n): a longer step to afford the rung "
+        f"(its choice is argued in config/scenes/chute.yaml)",
+        f"rough base: the settled particles with centres below {p['base_height']:g} d frozen (paper: a layer taken "
+        f"from a random packing)",
+        f"averaging over {k['t_average']:g} √(d/g) once u_cm was steady by our criterion (drift < "
+        f"{proto['steady_rel_tol']:.0%}, fluctuation < {proto['steady_fluct_tol']:.0%} over "
+        f"{proto['steady_window']:g} √(d/g); flow at most {k['t_flow_max']:g})",
+    ]
+    for c in sorted(loaded, key=lambda c: c.theta):
+        out.append(regime_line(c))
+        out.append(overlap_line(c))
+    return out
+
+
+# ------------------------------------------------------------------------- the record
+def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
+    """The chute's checks, profiles, figures and set-up differences for the cases of a rung.
+
+    Parameters
+    ----------
+    scene_dir : Path
+        ``results/chute/<rung>`` (its ``figures/`` hold the rung's figures).
+    cases : dict of str to Path
+        Case directory name (``theta~22``) to its analysed directory.
+    """
+    loaded = sorted((load_case(name, path) for name, path in cases.items()), key=lambda c: c.theta)
+    errors = {c.name: time_average_errors(c) for c in loaded}
+    checks = [check for c in loaded for check in case_checks(c, errors[c.name])]
+    checks += sweep_checks(loaded, errors)
+    heights = [height_profile(c) for c in loaded if not c.why_not]
+    profiles = {"height_profiles": pd.concat(heights, ignore_index=True)} if heights else {}
+    return ValidationResult(checks=checks, profiles=profiles, figures=list(FIGURES),
+                            differences=differences(loaded))

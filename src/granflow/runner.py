@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 
 from . import registry
+from .provenance import git_state
 
 
 class RunError(RuntimeError):
@@ -463,6 +464,7 @@ class CaseRunner:
             status, reason = "unstable", unstable
         elif n_dangerous:
             status, reason = "unstable", f"{n_dangerous} dangerous neighbour builds in the logs"
+        git = git_state()
         out = {
             "status": status,
             "reason": reason,
@@ -482,6 +484,9 @@ class CaseRunner:
             "nprocs": self.nprocs,
             "host": socket.gethostname(),
             "launcher": shlex.join(self.launch),
+            # the code that finished the run (a resumed run may have started under an earlier one)
+            "granflow_commit": git["commit"],
+            "granflow_dirty": git["dirty"],
             **self.usage(),
         }
         (self.run_dir / "status.json").write_text(json.dumps(out, indent=2) + "\n")

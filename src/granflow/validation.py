@@ -128,7 +128,7 @@ class ValidationResult:
 
 
 #: log lines worth keeping from each case (substrings; the first and last match of each)
-KEY_LOG_LINES = ("LAMMPS (", "Loop time", "Total wall time", "WARNING", "ERROR", "halt")
+KEY_LOG_LINES = ("LAMMPS (", "Loop time", "WARNING", "ERROR")
 
 
 def key_log_lines(case_dir: Path, limit: int = 40) -> list[str]:
@@ -161,7 +161,9 @@ def case_summary(case_dir: Path) -> dict:
     cpu = prov.get("cpu_seconds")
     return {
         "case": prov["case"], "status": prov["status"], "reason": status.get("reason"),
-        "granflow_commit": prov["granflow_commit"], "granflow_dirty": prov["granflow_dirty"],
+        # the commit that finished the run (runs before it was recorded: the record's commit)
+        "granflow_commit": status.get("granflow_commit", prov["granflow_commit"]),
+        "granflow_dirty": status.get("granflow_dirty", prov["granflow_dirty"]),
         "lammps_version": prov["lammps_version"], "ranks": prov["ranks"],
         "cpu_hours": cpu / 3600.0 if isinstance(cpu, (int, float)) else float("nan"),
         "wall_hours": (prov["wall_seconds"] / 3600.0 if isinstance(prov.get("wall_seconds"), (int, float))
@@ -209,9 +211,11 @@ def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs
     for rel, path in case_dirs.items():
         (out / "logs" / (rel.replace("/", "_") + ".txt")).write_text("\n".join(key_log_lines(Path(path))) + "\n")
     commits = sorted({c["granflow_commit"] for c in cases if c["granflow_commit"]})
+    record_git = provenance.git_state()
     summary = {
         "scene": scene_name, "rung": rung, "paper": paper,
         "granflow_commits": commits,
+        "record_commit": record_git["commit"], "record_dirty": record_git["dirty"],
         "lammps_versions": sorted({str(c["lammps_version"]) for c in cases}),
         "cpu_hours": sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"])),
         "cases": cases, "checks": checks, "differences": result.differences,

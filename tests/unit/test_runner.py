@@ -155,6 +155,9 @@ def test_profile_launcher_runs_lammps_and_is_recorded(tmp_path, monkeypatch):
     assert status["launcher"] == f"{srun} --mpi=pmi2 -n 3" and status["nprocs"] == 3
     assert status["host"] == socket.gethostname()
     assert json.loads((tmp_path / "run" / "status.json").read_text())["launcher"] == status["launcher"]
+    # and the code that ran: this checkout's commit
+    from granflow.provenance import git_state
+    assert status["granflow_commit"] == git_state()["commit"] and len(status["granflow_commit"]) == 40
 
 
 def test_granflow_mpirun_still_chooses_the_default_launcher(tmp_path, monkeypatch):

@@ -83,12 +83,13 @@ def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0) ->
     The difference is measured to the nearest end of the range (0 inside it); the
     combined error is ``sqrt(error^2 + paper_error^2)``. ``within error`` when the
     difference is within :data:`SIGMAS` combined errors; ``differs by X % (Y sigma)`` otherwise;
-    ``no statistical error`` when ours has none and lies outside the range.
+    ``no statistical error`` when ours has none and lies outside the range. Against a paper
+    value of 0 the difference is absolute. ``not measured`` when ours is NaN.
     """
-    if paper_range is None:
-        return "shape compared (see note)", float("nan")
     if not math.isfinite(ours):
         return "not measured", float("nan")
+    if paper_range is None:
+        return "shape compared (see note)", float("nan")
     lo, hi = sorted(float(v) for v in paper_range)
     nearest = min(max(ours, lo), hi)
     diff = ours - nearest
@@ -98,7 +99,7 @@ def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0) ->
         return "within the paper's range" if hi > lo else "equal", 0.0
     if sig > 0 and abs(diff) <= SIGMAS * sig:
         return f"within error ({abs(diff) / sig:.1f} σ)", rel
-    words = f"differs by {100 * rel:+.1f} %"
+    words = f"differs by {100 * rel:+.1f} %" if nearest else f"differs by {diff:+.3g} (the paper's value is 0)"
     if sig > 0:
         words += f" ({abs(diff) / sig:.0f} σ)"
     elif not math.isfinite(error):

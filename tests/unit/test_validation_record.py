@@ -32,6 +32,10 @@ def test_no_error_and_outside_says_so_and_shapes_are_words():
     assert verdict(2.0, 0.1, None)[0] == "shape compared (see note)"
     words, diff = verdict(float("nan"), 0.1, (1.0, 1.0))
     assert words == "not measured" and math.isnan(diff)
+    assert verdict(float("nan"), 0.1, None)[0] == "not measured"
+    # against 0 the difference is absolute, and one-sided ranges work
+    assert verdict(0.05, 0.01, (0.0, 0.0)) == ("differs by +0.05 (the paper's value is 0) (5 σ)", 0.05)
+    assert verdict(1.5, 0.2, (1.0, float("inf")))[0] == "within the paper's range"
 
 
 def _case(tmp_path, rel, cpu_s, overlap):

@@ -156,6 +156,13 @@ class HeapScene(Scene):
                         **{k: tables[k] for k in TABLES}, "deposit": tables["deposit"] if s["bidisperse"] else None})
         return out
 
+    # -- the validation record -------------------------------------------------------------
+    def validation(self, scene_dir, cases):
+        """Fan et al. (2013) against the cases: :func:`granflow.scenes.heap.validation.validation`."""
+        from .validation import validation
+
+        return validation(Path(scene_dir), cases)
+
     # -- the error-versus-cost study -------------------------------------------------------
     def observables(self, case_dir, record, t_average, block=None):
         from .pipeline import heap_observables

@@ -143,10 +143,7 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
         ax = sl.axis_profile(tables[f"kinetic_w{w:g}"], "pk")
         hw, hw_se = sl.transition_height(ax["z"], ax["value"], ax["value_se"])
         scalars[f"h_c_over_R_w{w:g}"], scalars[f"h_c_over_R_w{w:g}_se"] = hw / R, hw_se / R
-    bulk = tables["fields"]
-    sel = (bulk["z"] > 0.5 * record["fill_height"] - 4 * r_b) & (bulk["z"] < 0.5 * record["fill_height"] + 4 * r_b) \
-        & (bulk["r"] < R_c - 3 * r_b)
-    phi_bulk = float(bulk.loc[sel, "phi"].mean()) if sel.any() else float("nan")
+    phi_bulk, _ = sl.bulk_volume_fraction(tables["fields"], record["fill_height"], R_c, r_b)
     scalars.update({"phi_bulk": phi_bulk, "rho_bulk": rho_p * phi_bulk, "n_frames": n_frames,
                     "n_contact_frames": contact.n_frames})
     # W_r with the measured bulk fraction

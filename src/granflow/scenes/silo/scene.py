@@ -147,6 +147,13 @@ class SiloScene(Scene):
                         "fields": tables["fields"], "contact": tables["contact"], "kinetic_scan": scan})
         return out
 
+    # -- the validation record -------------------------------------------------------------
+    def validation(self, scene_dir, cases):
+        """Rubio-Largo et al. (2016) against the cases: :func:`granflow.scenes.silo.validation.validation`."""
+        from .validation import validation
+
+        return validation(Path(scene_dir), cases)
+
     # -- the error-versus-cost study -------------------------------------------------------
     def observables(self, case_dir, record, t_average, block=None):
         """Over the discharge up to ``t_average`` after the opening, whose steady part the analysis finds

@@ -464,3 +464,49 @@ def deposit_concentration(position, radius, type, fit: SurfaceFit, geometry: Hea
         "c_s": np.divide(small, total, out=np.full(n_cols, np.nan), where=total > 0),
         "n": count,
     })
+
+
+# --------------------------------------------------------------------------- comparisons
+def delta_over_local_d(per_x: pd.DataFrame, x_range=DELTA_MEAN_RANGE) -> tuple[float, int]:
+    """Mean flowing-layer thickness in local mean diameters over :math:`x_{lo} \\le x/L \\le x_{hi}`.
+
+    .. math:: \\langle \\delta/\\bar d \\rangle = \\frac1n \\sum_{x} \\frac{\\delta(x)}{\\bar d(x)}
+
+    over the usable streamwise bins, :math:`\\bar d(x)` the number-mean
+    diameter in the layer (paper section 3.3, figure 10d: the paper scales
+    :math:`\\delta` by the *local* :math:`\\bar d`, which segregation changes along
+    a bidisperse heap; ``delta_over_d`` of :func:`analyse_heap` divides by the
+    mixture's mean instead).
+
+    Returns
+    -------
+    mean, n : float, int
+        NaN and 0 without a usable bin in the range.
+    """
+    xl, delta, d = (_column(per_x, k) for k in ("x_over_L", "delta", "d_bar"))
+    usable = per_x["usable"].astype(bool).to_numpy() if "usable" in per_x else np.isfinite(delta)
+    sel = usable & (xl >= x_range[0]) & (xl <= x_range[1]) & np.isfinite(delta) & np.isfinite(d) & (d > 0)
+    return (float(np.mean(delta[sel] / d[sel])), int(sel.sum())) if sel.any() else (float("nan"), 0)
+
+
+def deposit_contrast(deposit: pd.DataFrame, x_lo: float, x_hi: float) -> dict:
+    """Small-particle concentration of the upstream half of the deposit minus the downstream half's.
+
+    .. math:: \\Delta c_s = \\bar c_s(x_{lo} \\le x_{lab} < x_m) - \\bar c_s(x_m \\le x_{lab} \\le x_{hi}),
+        \\qquad x_m = (x_{lo} + x_{hi})/2
+
+    each half's :math:`\\bar c_s` weighted by the particles counted per column
+    (:func:`deposit_concentration`); positive when the small particles deposit
+    upstream (paper, figure 3).
+
+    Returns
+    -------
+    dict
+        ``contrast, upstream, downstream, n`` (particles); NaN without particles in a half.
+    """
+    x, c, n = (_column(deposit, k) for k in ("x_lab", "c_s", "n"))
+    ok = np.isfinite(x) & np.isfinite(c) & np.isfinite(n) & (n > 0) & (x >= x_lo) & (x <= x_hi)
+    mid = 0.5 * (x_lo + x_hi)
+    halves = [ok & (x < mid), ok & (x >= mid)]
+    up, down = (float(np.sum(c[h] * n[h]) / np.sum(n[h])) if h.any() else float("nan") for h in halves)
+    return dict(contrast=up - down, upstream=up, downstream=down, n=int(np.sum(n[ok])) if ok.any() else 0)

@@ -496,3 +496,37 @@ def fit_surface(t, x_lab, z_s, x_range) -> SurfaceFit:
         n_points=int(ok.sum()), residual_std=float(s), x_range=(float(x_range[0]), float(x_range[1])),
         alpha_t=alpha_t, rise_by_x=rise,
     )
+
+
+def rise_inefficiency(surface: pd.DataFrame, x_range) -> float:
+    """Statistical inefficiency :math:`g` of the residuals of the mean surface height's rise.
+
+    The mean :math:`\\bar z_s(t)` of the free surface over the columns with
+    centres in ``x_range`` (the fit range of :func:`fit_surface`) is fitted by a
+    line in time; :math:`g` of its residuals
+    (:func:`postproc.autocorr.statistical_inefficiency`) says how many frames
+    one independent residual spans.  The least-squares error of the rise
+    velocity assumes independent residuals; :math:`\\sqrt g` times it allows for
+    their correlation (surges of the flowing layer last several frames).
+
+    Parameters
+    ----------
+    surface : DataFrame
+        :func:`surface_table` output, ``t, x_lab, z_s``.
+    x_range : (float, float)
+        Open interval of column centres.
+
+    Returns
+    -------
+    float
+        :math:`g \\ge 1`; NaN with fewer than four frames.
+    """
+    from postproc.autocorr import statistical_inefficiency
+
+    s = surface[(surface["x_lab"] > x_range[0]) & (surface["x_lab"] < x_range[1])]
+    mean = s.groupby("t")["z_s"].mean().dropna()
+    if len(mean) < 4:
+        return float("nan")
+    t, z = mean.index.to_numpy(float), mean.to_numpy(float)
+    a, b, _, _ = _line_fit(t, z)
+    return statistical_inefficiency(z - (a + b * t))

@@ -306,6 +306,46 @@ def steady_flow_rate(thermo: pd.DataFrame, t_start: float, t_end: float, n_block
     return steady_rate(_column(thermo, "Time"), _column(thermo, "v_mdel"), t_start, t_end, n_blocks=n_blocks)
 
 
+def surface_rate_ratio(flow: pd.DataFrame, W_f: float, W_f_se: float, t_start: float, t_end: float,
+                       n_blocks: int = 4) -> dict:
+    """The rate read from the falling free surface over the outflow, in the steady window (paper figure 2a).
+
+    .. math:: \\frac{\\langle W_r \\rangle}{W_f}, \\qquad
+        \\frac{\\sigma}{\\langle W_r\\rangle/W_f} = \\sqrt{\\Big(\\frac{\\sigma_{W_r}}{W_r}\\Big)^2
+        + \\Big(\\frac{\\sigma_{W_f}}{W_f}\\Big)^2}
+
+    :math:`\\langle W_r \\rangle` is the mean of the windowed rates of
+    :func:`flow_rates` whose centres lie in ``[t_start, t_end]``, with the
+    standard error of a correlated series (:func:`postproc.autocorr.mean_error`),
+    or the block error of ``n_blocks`` consecutive blocks of windows when larger
+    and the autocorrelation estimate is not reliable
+    (:func:`postproc.autocorr.combined_error`); ``W_f`` and its error are the
+    steady outflow.  Mass conservation makes the ratio 1 when the bulk below
+    the surface has the volume fraction used for :math:`W_r`.
+
+    Returns
+    -------
+    dict
+        ``ratio, ratio_se, W_r, W_r_se, W_r_se_method, n`` (windows); NaN without windows or outflow.
+    """
+    from postproc.autocorr import combined_error, mean_error
+
+    t = _column(flow, "t")
+    sel = np.isfinite(t) & (t >= t_start - 1e-12) & (t <= t_end + 1e-12)
+    w_r = _column(flow, "W_r")[sel]
+    w_r = w_r[np.isfinite(w_r)]
+    m = mean_error(w_r)
+    blocks = [b.mean() for b in np.array_split(w_r, n_blocks) if len(b)] if len(w_r) >= n_blocks else []
+    se_block = float(np.std(blocks, ddof=1) / np.sqrt(len(blocks))) if len(blocks) >= 2 else np.nan
+    se, method = combined_error(m, se_block)
+    out = dict(ratio=np.nan, ratio_se=np.nan, W_r=m.mean, W_r_se=se, W_r_se_method=method, n=m.n)
+    if np.isfinite(W_f) and W_f > 0 and np.isfinite(m.mean):
+        ratio = m.mean / W_f
+        se_f = W_f_se / W_f if np.isfinite(W_f_se) else 0.0
+        out.update(ratio=float(ratio), ratio_se=float(abs(ratio) * np.hypot(se / m.mean, se_f)))
+    return out
+
+
 # --------------------------------------------------------------------------- Beverloo
 def beverloo_law(D, C: float, k: float, rho_b: float, g: float, d: float):
     """Beverloo's law for the discharge rate through a circular orifice.

@@ -323,3 +323,174 @@ def velocity_scaling_fit(R, v_c, v_c_se=None) -> dict:
 def mean_diameter(radii) -> float:
     """Number-mean particle diameter of equal numbers per size, :math:`d = 2\\langle r_s\\rangle`, m."""
     return float(2 * np.mean(np.asarray(radii, dtype=float)))
+
+
+# --------------------------------------------------------------------------- comparisons over cases
+def weighted_line_fit(x, y, y_se=None) -> dict:
+    """Least-squares line :math:`y = a + b x`, weighted by :math:`1/\\sigma_y^2` when errors are given.
+
+    .. math:: (a, b) = \\arg\\min \\sum_i w_i (y_i - a - b x_i)^2, \\qquad
+        \\mathrm{cov} = (X^T W X)^{-1} \\cdot \\max(1, \\chi^2/\\nu)
+
+    With errors the covariance is the weighted one, scaled up by
+    :math:`\\chi^2/\\nu` when the points scatter more than their errors allow
+    (as :func:`beverloo_fit` does); without errors (or with any missing or
+    non-positive) the fit is unweighted and the residuals set the covariance.
+    Two points give the line with the weights' errors only (no
+    :math:`\\chi^2`); one point gives NaN.
+
+    Returns
+    -------
+    dict
+        ``slope, intercept, slope_se, intercept_se, chi2_dof, n``.
+    """
+    x = np.asarray(x, dtype=float).ravel()
+    y = np.asarray(y, dtype=float).ravel()
+    ok = np.isfinite(x) & np.isfinite(y)
+    s = None
+    if y_se is not None:
+        s = np.asarray(y_se, dtype=float).ravel()
+        if not np.all(np.isfinite(s[ok]) & (s[ok] > 0)):
+            s = None
+    x, y = x[ok], y[ok]
+    s = s[ok] if s is not None else None
+    n = len(x)
+    out = dict(slope=np.nan, intercept=np.nan, slope_se=np.nan, intercept_se=np.nan, chi2_dof=np.nan, n=n)
+    if n < 2 or np.ptp(x) == 0:
+        return out
+    w = np.ones(n) if s is None else 1.0 / s ** 2
+    X = np.column_stack([np.ones(n), x])
+    A = X.T @ (X * w[:, None])
+    coef = np.linalg.solve(A, X.T @ (w * y))
+    resid = y - X @ coef
+    dof = n - 2
+    chi2_dof = float(np.sum(w * resid ** 2) / dof) if dof > 0 else np.nan
+    if s is None:
+        scale = chi2_dof  # NaN with two points: no error without weights
+    else:
+        scale = max(1.0, chi2_dof) if np.isfinite(chi2_dof) else 1.0
+    cov = np.linalg.inv(A) * scale
+    out.update(slope=float(coef[1]), intercept=float(coef[0]), slope_se=float(np.sqrt(cov[1, 1])),
+               intercept_se=float(np.sqrt(cov[0, 0])), chi2_dof=chi2_dof if s is not None else np.nan)
+    return out
+
+
+def scaling_exponent(x, y, y_se=None) -> dict:
+    """Exponent :math:`a` of :math:`y = c\\,x^a` by :func:`weighted_line_fit` of the logarithms.
+
+    .. math:: \\ln y = \\ln c + a \\ln x, \\qquad \\sigma_{\\ln y} = \\sigma_y / y
+
+    (e.g. :math:`v_c \\propto R^{1/2}` over orifice sizes, paper figure 5).
+    Points with non-positive x or y are left out.
+
+    Returns
+    -------
+    dict
+        ``exponent, exponent_se, prefactor, chi2_dof, n``.
+    """
+    x = np.asarray(x, dtype=float).ravel()
+    y = np.asarray(y, dtype=float).ravel()
+    se = None if y_se is None else np.asarray(y_se, dtype=float).ravel()
+    ok = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
+    fit = weighted_line_fit(np.log(x[ok]), np.log(y[ok]), None if se is None else se[ok] / y[ok])
+    return dict(exponent=fit["slope"], exponent_se=fit["slope_se"], prefactor=float(np.exp(fit["intercept"])),
+                chi2_dof=fit["chi2_dof"], n=fit["n"])
+
+
+def bulk_volume_fraction(fields: pd.DataFrame, fill_height: float, R_c: float, r_b: float) -> tuple[float, float]:
+    """Bulk volume fraction of the silo: the mean of :math:`\\phi` over a slab at half the fill height.
+
+    .. math:: \\phi_{bulk} = \\langle \\phi(r, z) \\rangle_{|z - H/2| < 4 r_b,\\ r < R_c - 3 r_b}
+
+    (nodes within three largest radii of the side wall are left out: the wall
+    orders the packing there).  The standard error is the mean of the nodes'
+    standard errors: nodes closer than the kernel share particles, so their
+    errors are taken as fully correlated (an upper bound).  The paper measures
+    :math:`\\phi_{bulk}` in a slab touching the top surface (its section 3).
+
+    Returns
+    -------
+    phi_bulk, phi_bulk_se : float
+        NaN when no node lies in the slab.
+    """
+    r, z, phi = _column(fields, "r"), _column(fields, "z"), _column(fields, "phi")
+    se = _column(fields, "phi_se")
+    sel = (z > 0.5 * fill_height - 4 * r_b) & (z < 0.5 * fill_height + 4 * r_b) & (r < R_c - 3 * r_b)
+    if not sel.any():
+        return float("nan"), float("nan")
+    return float(np.mean(phi[sel])), float(np.nanmean(se[sel])) if np.isfinite(se[sel]).any() else float("nan")
+
+
+def contact_fall(contact: pd.DataFrame, R: float, span: float = 2.0) -> dict:
+    """How the contact pressure on the axis falls towards the orifice (paper figure 6).
+
+    Over the axis nodes with :math:`0 \\le z \\le` ``span`` :math:`R`: the Spearman
+    rank correlation :math:`\\rho_s` of :math:`p^c(r=0, z)` with :math:`z` (1 for a
+    monotonic fall towards the outlet, whatever its shape), and the pressure
+    at the orifice plane relative to the one at the top of the span,
+
+    .. math:: f = \\frac{p^c(0, 0)}{p^c(0, \\mathrm{span}\\cdot R)}
+
+    (0 when it vanishes at the outlet), with its error from the nodes' standard
+    errors (independent).
+
+    Returns
+    -------
+    dict
+        ``rho_s, ratio, ratio_se, n`` (nodes used); NaN with fewer than three nodes.
+    """
+    from scipy.stats import spearmanr
+
+    prof = axis_profile(contact, "pc")
+    z, p, se = prof["z"].to_numpy(float), prof["value"].to_numpy(float), prof["value_se"].to_numpy(float)
+    sel = np.isfinite(z) & np.isfinite(p) & (z >= -1e-12) & (z <= span * R + 1e-12)
+    out = dict(rho_s=np.nan, ratio=np.nan, ratio_se=np.nan, n=int(sel.sum()))
+    if sel.sum() < 3:
+        return out
+    z, p, se = z[sel], p[sel], se[sel]
+    out["rho_s"] = float(spearmanr(z, p).statistic)
+    lo, hi = int(np.argmin(z)), int(np.argmax(z))
+    if p[hi] > 0:
+        out.update(ratio=float(p[lo] / p[hi]),
+                   ratio_se=float(np.hypot(se[lo] / p[hi], p[lo] * se[hi] / p[hi] ** 2)))
+    return out
+
+
+def partial_ratio(fields: pd.DataFrame, z: float, phi_min: float = PHI_MIN_PARTIAL) -> dict:
+    """Kinetic pressure per unit partial volume fraction of the smallest size over the largest's, on the axis.
+
+    .. math:: \\rho_{sl} = \\frac{p^k_1/\\phi_1}{p^k_{n}/\\phi_{n}}
+
+    at the axis node nearest height ``z`` (species ids ordered by size, 1 the
+    smallest), from :func:`partial_over_fraction`; the paper's figure 12 shows
+    :math:`\\rho_{sl} > 1` ("the small particles carry a higher fraction of
+    kinetic stress respect to their concentration").  Also the plain ratio of
+    the partial pressures largest over smallest, :math:`p^k_n/p^k_1` (its
+    figure 11: "larger for bigger particles").  Errors are propagated with the
+    two species taken as independent.
+
+    Returns
+    -------
+    dict
+        ``ratio, ratio_se, pk_large_over_small, z_node, small, large`` (species ids);
+        NaN without two species or at a node without both.
+    """
+    table = partial_over_fraction(fields, phi_min)
+    ids = species_ids(table, "pk_over_phi")
+    out = dict(ratio=np.nan, ratio_se=np.nan, pk_large_over_small=np.nan, z_node=np.nan,
+               small=ids[0] if ids else None, large=ids[-1] if ids else None)
+    if len(ids) < 2 or not np.isfinite(z):
+        return out
+    small, large = ids[0], ids[-1]
+    a = axis_profile(table, f"pk_over_phi_s{small}")
+    b = axis_profile(table, f"pk_over_phi_s{large}")
+    i = int(np.argmin(np.abs(a["z"].to_numpy(float) - z)))
+    va, sa, vb, sb = (float(t[c].iloc[i]) for t in (a, b) for c in ("value", "value_se"))
+    pa = axis_profile(fields, f"pk_s{small}")["value"].iloc[i]
+    pb = axis_profile(fields, f"pk_s{large}")["value"].iloc[i]
+    out["z_node"] = float(a["z"].iloc[i])
+    if vb != 0 and np.isfinite(va) and np.isfinite(vb):
+        out.update(ratio=float(va / vb), ratio_se=float(np.hypot(sa / vb, va * sb / vb ** 2)))
+    if pa:
+        out["pk_large_over_small"] = float(pb / pa)
+    return out

@@ -1,0 +1,409 @@
+"""The heap's validation record: Fan, Umbanhowar, Ottino & Lueptow (2013) against our cases.
+
+:func:`validation` compares what the scene's analysis wrote for each finished case
+(``analysis/scalars.json``, ``per_x.csv``, ``collapse.csv``, ``surface.csv``, ``deposit.csv``)
+with the paper; it recomputes no field.
+
+Checks per case: the dynamic angle of repose α (the paper states it for the 1/2 mm mixture at
+33 g/s only, section 3.1); the rise velocity against mass conservation (exact: ratio 1); the
+flowing-layer thickness in local mean diameters, δ/d̄ (6-7 d, section 3.2.2); the prefactor and
+the exponent of the exponential tail u/u_s = 2.4 e^{3.3 z/δ} (figure 7b); the spread of the three
+δ methods (they agree, figure 6d); for a mixture, the small particles' deposit upstream (figure 3).
+Over the sweep: the exponent of δ/d̄ ∝ q*^a (a ≈ 0.22, figure 11).
+
+Errors are one standard error of ours. The headline numbers (α, δ/d̄, the tail exponent) carry the
+correlation-aware error of :func:`granflow.headline.measure_with_errors`, which re-analyses
+sub-windows of the averaging window from the dumps; without dumps the analysis's own errors
+stand in (the note says so). Fit parameters carry the fits' standard errors.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from granflow import headline
+from granflow.plotting import _pm
+from granflow.registry import finite
+from granflow.validation import Check, ValidationResult
+
+import granflow.scenes.heap.analysis as hp
+from .pipeline import mixture_mean_diameter
+
+#: the heap scene's headline keys (``HeapScene.headline``) and, per key, the analysis's own error
+HEADLINE_FALLBACK = {"alpha": "alpha_se", "delta_over_d": None, "tail_exponent": "tail_k_se"}
+#: the paper's α for the 1/2 mm mixture at 33 g/s and its variation in time, degrees (section 3.1)
+PAPER_ALPHA = 25.69
+PAPER_ALPHA_SE = 0.07
+#: the case of that statement: diameters (m) and feed rate (kg/s)
+PAPER_ALPHA_CASE = ((1.0e-3, 2.0e-3), 0.033)
+#: the case of "δ ≈ 6d to 7d" (figure 6d): 1.5 mm monodisperse at 33 g/s
+PAPER_DELTA_CASE = ((1.5e-3,), 0.033)
+PAPER_DELTA_OVER_D = (6.0, 7.0)
+#: u/u_s = 2.4 exp(3.3 z/δ) (figure 7b), each to the digits stated
+PAPER_TAIL_A = (2.35, 2.45)
+PAPER_TAIL_K = (3.25, 3.35)
+#: δ/d̄ ∝ q*^a, a ≈ 0.22 (figure 11), to the digits stated
+PAPER_Q_STAR_EXPONENT = (0.215, 0.225)
+#: the paper's heap length W, gap T, feed height above the base, t_c, time step and averaging time (sections 2-3)
+PAPER_W = 0.46
+PAPER_T = 0.013
+PAPER_FEED_DROP = 0.1
+PAPER_T_C = 1.0e-3
+PAPER_DT = 1.0e-5
+PAPER_T_AVERAGE = 10.0
+#: the largest overlap a faithful run should keep, as a fraction of the smallest diameter
+OVERLAP_LIMIT = 0.01
+#: the scene's figures kept in the record
+FIGURES = ("fig04_surface", "fig06_streamwise", "fig07_collapse", "fig11_qstar")
+#: collapsed profiles are kept down to this z/δ
+COLLAPSE_ZT_MIN = -3.0
+
+
+# --------------------------------------------------------------------------- inputs
+@dataclass
+class HeapCase:
+    """What the analysis wrote for one case, and the errors of its headline numbers."""
+
+    name: str
+    path: Path
+    record: dict
+    status: dict
+    scalars: dict
+    tables: dict
+    errors: dict = field(default_factory=dict)
+    error_note: str = ""
+
+    def get(self, key: str) -> float:
+        return finite(self.scalars.get(key))
+
+    @property
+    def measured(self) -> bool:
+        """The analysis ran and found usable streamwise bins."""
+        return bool(self.scalars) and not self.tables["per_x"].empty
+
+    @property
+    def why_not(self) -> str:
+        if not self.scalars:
+            return "not analysed (no analysis/scalars.json)"
+        reason = self.scalars.get("status_reason") or self.status.get("reason") or ""
+        return f"not measured: case {self.scalars.get('status', '?')}" + (f" ({reason})" if reason else "")
+
+    @property
+    def status_note(self) -> str:
+        """The case's status when it is not steady (its numbers are then to be read with care)."""
+        s = self.scalars.get("status")
+        return "" if s == "steady" else f"; case {s}: {self.scalars.get('status_reason')}"
+
+    @property
+    def diameters(self) -> tuple[float, ...]:
+        return tuple(sorted(float(s["d"]) for s in self.record["species"]))
+
+    @property
+    def feed_rate(self) -> float:
+        return float(self.record["case"]["feed_rate"])
+
+    def is_case(self, diameters, feed_rate) -> bool:
+        """Whether this is the paper's case of given mean diameters (m) and feed rate (kg/s)."""
+        return (len(self.diameters) == len(diameters) and np.allclose(self.diameters, diameters, rtol=1e-6)
+                and math.isclose(self.feed_rate, feed_rate, rel_tol=1e-6))
+
+
+def _table(path: Path) -> pd.DataFrame:
+    return pd.read_csv(path) if path.exists() and path.stat().st_size else pd.DataFrame()
+
+
+def load_case(name: str, path: Path) -> HeapCase:
+    """The case's record, run status, analysis scalars and tables (empty where absent), and its errors."""
+    path = Path(path)
+    record = json.loads((path / "params.json").read_text())
+    status = json.loads((path / "run" / "status.json").read_text())
+    scalars_file = path / "analysis" / "scalars.json"
+    scalars = json.loads(scalars_file.read_text()) if scalars_file.exists() else {}
+    tables = {t: _table(path / "analysis" / f"{t}.csv") for t in ("per_x", "collapse", "surface", "deposit")}
+    case = HeapCase(name, path, record, status, scalars, tables)
+    case.errors, case.error_note = headline_errors(case)
+    return case
+
+
+def headline_errors(case: HeapCase) -> tuple[dict, str]:
+    """Standard error of each headline number and how it was obtained.
+
+    :func:`granflow.headline.measure_with_errors` over the rung's averaging time when the
+    case was analysed and its dumps are there (correlation-aware: sub-windows of the
+    averaging window, each analysed on its own); otherwise the analysis's own errors
+    (:data:`HEADLINE_FALLBACK`, NaN where it has none).
+    """
+    fallback = {k: (case.get(v) if v else float("nan")) for k, v in HEADLINE_FALLBACK.items()}
+    dumps = case.status.get("dumps") or []
+    if not case.measured:
+        return fallback, ""
+    if not dumps or not all((case.path / "run" / d).exists() for d in dumps):
+        return fallback, "dumps absent: the analysis's own errors"
+    try:
+        m = headline.measure_with_errors("heap", case.path, case.record, case.record["rung_knobs"]["t_average"],
+                                         n_blocks=4)
+    except (OSError, ValueError, KeyError, IndexError, np.linalg.LinAlgError) as exc:
+        return fallback, f"measure_with_errors failed ({exc}): the analysis's own errors"
+    errors = {k: finite(m[k]["se"]) if k in m else fallback[k] for k in HEADLINE_FALLBACK}
+    a = m.get("alpha", {})
+    return errors, f"error: {a.get('se_method', 'block')} over {a.get('n_series', a.get('n_blocks'))} sub-windows"
+
+
+def _with(note: str, case: HeapCase, errors: bool = False) -> str:
+    return note + (f"; {case.error_note}" if errors and case.error_note else "") + case.status_note
+
+
+def _not_measured(quantity: str, paper: str, source: str, case: HeapCase, **kw) -> Check:
+    return Check(quantity, paper, source, float("nan"), case=case.name, note=case.why_not, **kw)
+
+
+# --------------------------------------------------------------------------- per-case checks
+def alpha_check(case: HeapCase) -> Check:
+    q = "dynamic angle of repose α"
+    if case.is_case(*PAPER_ALPHA_CASE):
+        paper, source = f"{PAPER_ALPHA} ± {PAPER_ALPHA_SE}", "§3.1, Fig. 4b inset (1/2 mm, 33 g/s)"
+        kw = dict(paper_range=(PAPER_ALPHA, PAPER_ALPHA), paper_error=PAPER_ALPHA_SE)
+    else:
+        paper = f"not stated for this case (only for 1/2 mm at 33 g/s: {PAPER_ALPHA} ± {PAPER_ALPHA_SE})"
+        if case.is_case(PAPER_ALPHA_CASE[0], case.feed_rate):
+            paper += "; its 1/2 mm runs are at 10, 33 and 120 g/s"
+        source, kw = "§3.1; Table 1", {}
+    if not case.measured:
+        return _not_measured(q, paper, source, case, unit="deg", **kw)
+    alpha, theta = case.get("alpha_deg"), float(case.record["geometry"]["theta_deg"])
+    note = ("plane z_s = z_0 − x tan α + v_r t fitted to the free surface (φ = 0.35) of every frame of the "
+            f"averaging window, columns downstream of the feed zone; the paper's base θ = {theta:g}° is 'slightly "
+            "less than the dynamic angle of repose' (§2.1)")
+    if alpha < theta:
+        note += "; ours is below θ: the surface is flatter than the base, the heap thickens towards the end wall"
+    return Check(q, paper, source, alpha, case.errors.get("alpha"), case=case.name, unit="deg",
+                 note=_with(note, case, errors=True), **kw)
+
+
+def rise_check(case: HeapCase) -> Check:
+    q = "v_r / (ṁ/(ρ φ_bed T W)): rise velocity over mass conservation"
+    paper, source = "1 (mass conservation: v_r = q/W)", "§1, §3.1"
+    if not case.measured:
+        return _not_measured(q, paper, source, case, paper_range=(1.0, 1.0))
+    v_r, v_pred = case.get("v_r"), case.get("v_r_predicted")
+    geometry = hp.HeapGeometry(**case.record["geometry"])
+    dx = case.record["rung_knobs"]["bin_dx"] * case.get("d_bar")
+    g = hp.rise_inefficiency(case.tables["surface"], hp.surface_fit_range(geometry, dx)) \
+        if not case.tables["surface"].empty else float("nan")
+    v_se = case.get("v_r_se") * (math.sqrt(g) if math.isfinite(g) else 1.0)
+    rate, rate_se = case.get("feed_rate_measured"), case.get("feed_rate_measured_se")
+    ratio = v_r / v_pred
+    se = abs(ratio) * math.hypot(v_se / v_r, rate_se / rate if math.isfinite(rate_se) else 0.0)
+    note = (f"v_r = {_pm(v_r * 1e3, v_se * 1e3, '.4g', 'mm/s')} from the fitted plane (least-squares error × √g, "
+            f"g = {g:.3g} frames for correlated residuals); predicted {v_pred * 1e3:.4g} mm/s from the delivered "
+            f"ṁ = {rate * 1e3:.4g} g/s, φ_bed = {case.get('phi_bed'):.3f} (static bed 1.5δ to 1.5δ + 20 d̄ below the "
+            f"surface), T = {geometry.T * 1e3:g} mm, W = {geometry.W:g} m; φ_bed's own error is not included")
+    return Check(q, paper, source, ratio, se, case=case.name, paper_range=(1.0, 1.0), note=_with(note, case))
+
+
+def delta_check(case: HeapCase) -> Check:
+    q = "δ/d̄ (flowing-layer thickness, local mean diameter)"
+    paper, source = "6d to 7d (1.5 mm, 33 g/s)", "§3.2.2, Fig. 6d"
+    if not case.measured:
+        return _not_measured(q, paper, source, case, paper_range=PAPER_DELTA_OVER_D)
+    value, n = hp.delta_over_local_d(case.tables["per_x"])
+    global_ratio = case.get("delta_over_d")
+    rel = case.errors.get("delta_over_d", np.nan) / global_ratio
+    note = (f"mean over {n} usable bins with 0.2 ≤ x/L ≤ 0.9 of δ (0.1 u_s cutoff) over the number-mean diameter "
+            f"in the layer (the paper's local d̄, §3.3); over the mixture's mean d̄ = {case.get('d_bar') * 1e3:.3g} mm "
+            f"it is {_pm(global_ratio, case.errors.get('delta_over_d', np.nan))}, whose relative error is used"
+            + (f" ({case.error_note})" if case.error_note else ""))
+    if not case.is_case(*PAPER_DELTA_CASE):
+        note += ("; the paper states 6-7 d for 1.5 mm at 33 g/s only; its Fig. 10(d) shows δ/d̄ of every case "
+                 "(the 1/2 mm mixture included) with no clear trend: the band is its nearest statement, not a value "
+                 "for this case")
+    return Check(q, paper, source, value, value * rel, case=case.name, paper_range=PAPER_DELTA_OVER_D,
+                 note=_with(note, case))
+
+
+def tail_checks(case: HeapCase) -> list[Check]:
+    source = "Fig. 7b (1.5 mm, 33 g/s); Fig. 9: every case on the same curve"
+    qa, qk = "tail u/u_s = A e^{k z/δ}: prefactor A", "tail u/u_s = A e^{k z/δ}: exponent k"
+    if not case.measured:
+        return [_not_measured(qa, "2.4", source, case, paper_range=PAPER_TAIL_A),
+                _not_measured(qk, "3.3", source, case, paper_range=PAPER_TAIL_K)]
+    note = ("least squares of ln(u/u_s) on z/δ over −1.6 < z/δ < −0.7, the collapsed profiles of all usable "
+            "streamwise bins pooled")
+    # A comes from the same fit as k, whose fit error ignores the same correlations: scale A's by k's ratio
+    k_fit, k_se = case.get("tail_k_se"), case.errors.get("tail_exponent", np.nan)
+    inflation = max(1.0, k_se / k_fit) if math.isfinite(k_se) and k_fit > 0 else 1.0
+    a_note = (f"; error: the fit's (points taken as independent) × {inflation:.2g}, the ratio of k's error to its "
+              "fit error" if inflation > 1 else "; error: the fit's, points taken as independent")
+    return [Check(qa, "2.4", source, case.get("tail_A"), case.get("tail_A_se") * inflation, case=case.name,
+                  paper_range=PAPER_TAIL_A, note=_with(note + a_note, case)),
+            Check(qk, "3.3", source, case.get("tail_k"), case.errors.get("tail_exponent"), case=case.name,
+                  paper_range=PAPER_TAIL_K, note=_with(note, case, errors=True))]
+
+
+def methods_check(case: HeapCase) -> Check:
+    q = "three δ methods: spread (max − min)/mean"
+    paper, source = "'similar' (no number)", "§3.2.2, Fig. 6d; §4"
+    if not case.measured:
+        return _not_measured(q, paper, source, case)
+    values = {name: case.get(f"delta_{key}_mean") for name, key in
+              (("exponential fit × 2.3", "exp"), ("linear extrapolation", "lin"), ("0.1 u_s cutoff", "cut"))}
+    v = np.array(list(values.values()))
+    spread = float(np.ptp(v) / np.mean(v)) if np.all(np.isfinite(v)) else float("nan")
+    note = ("means over 0.2 ≤ x/L ≤ 0.9: " + ", ".join(f"{k} {x * 1e3:.3g} mm" for k, x in values.items())
+            + "; the paper's three agree by eye in its Fig. 6d")
+    return Check(q, paper, source, spread, case=case.name, note=_with(note, case))
+
+
+def deposit_check(case: HeapCase) -> Check:
+    q = "c_s upstream − downstream half of the deposit"
+    paper, source = "> 0: small particles deposit upstream, large downstream", "§2.2, Fig. 3c"
+    if len(case.record["species"]) < 2:
+        return Check(q, paper, source, float("nan"), case=case.name, paper_range=(0.0, math.inf),
+                     note="monodisperse case: no small-particle concentration (a mixture-only check)")
+    if not case.measured or case.tables["deposit"].empty:
+        return _not_measured(q, paper, source, case, paper_range=(0.0, math.inf))
+    geometry = case.record["geometry"]
+    d = hp.deposit_contrast(case.tables["deposit"], geometry["x_feed"], geometry["W"])
+    note = ("volume concentration of the small species in the material laid down in the averaging window "
+            "below the flowing layer, x_lab from the feed zone's edge to the end wall, halves weighted by the "
+            f"{d['n']} particles counted: upstream {d['upstream']:.3f}, downstream {d['downstream']:.3f}; no "
+            "statistical error (one deposit)")
+    return Check(q, paper, source, d["contrast"], case=case.name, paper_range=(0.0, math.inf), note=_with(note, case))
+
+
+# --------------------------------------------------------------------------- sweep check
+def q_star_check(cases: list[HeapCase]) -> Check:
+    """δ/d̄ ∝ q*^a over the usable bins with x/L ≥ 0.2 of every case, pooled (paper figure 11)."""
+    q, paper, source = "δ/d̄ ∝ q*^a: exponent a", "≈ 0.22", "§3.3, Fig. 11"
+    qs, ds, per_case = [], [], []
+    for c in cases:
+        if not c.measured:
+            continue
+        px = c.tables["per_x"]
+        usable = px["usable"].astype(bool).to_numpy() if "usable" in px else np.ones(len(px), bool)
+        sel = usable & (px["x_over_L"].to_numpy(float) >= hp.Q_STAR_MIN_X_OVER_L)
+        qs.append(px["q_star"].to_numpy(float)[sel])
+        ds.append((px["delta"] / px["d_bar"]).to_numpy(float)[sel])
+        per_case.append(f"{c.name}: {_pm(c.get('q_star_exponent'), c.get('q_star_exponent_se'), '.2f')}")
+    if not qs:
+        return Check(q, paper, source, float("nan"), paper_range=PAPER_Q_STAR_EXPONENT, note="no measured case")
+    fit = hp.fit_power_law(np.concatenate(qs), np.concatenate(ds))
+    rates = sorted({f"{1e3 * c.feed_rate:g}" for c in cases if c.measured})
+    note = (f"least squares of ln(δ/d̄) on ln q*, q* = q/(d̄√(g d̄)), over the usable bins with x/L ≥ 0.2 of "
+            f"{len(qs)} case(s) at {', '.join(rates)} g/s (per case: {'; '.join(per_case)}); error: the fit's, bins "
+            "taken as independent (neighbours share particles: an underestimate). ")
+    note += ("A weak test: with " + (f"{len(rates)} feed rates" if len(rates) > 1 else "one feed rate")
+             + " the q* range comes mostly from the fall of q along each heap, where δ also thins towards the "
+             "end wall, not from the feed rate as in the paper's 11 runs")
+    return Check(q, paper, source, fit.exponent, fit.exponent_se, paper_range=PAPER_Q_STAR_EXPONENT, note=note)
+
+
+# --------------------------------------------------------------------------- profiles
+def profiles(cases: list[HeapCase]) -> dict[str, pd.DataFrame]:
+    """Small tables behind the kept figures: kinematics along the heap, the collapse, the surface, the deposit."""
+    streamwise, collapsed, surface, deposit = [], [], [], []
+    for c in cases:
+        if not c.measured:
+            continue
+        head = {"case": c.name}
+        px = c.tables["per_x"]
+        keep = [k for k in ("x", "x_over_L", "q", "u_s", "gamma_bar", "delta", "delta_exp", "delta_lin",
+                            "delta_cut", "delta_eq31", "d_bar", "q_star", "usable", "c_s") if k in px]
+        streamwise.append(px[keep].assign(**head)[["case", *keep]])
+        col = c.tables["collapse"]
+        if not col.empty:
+            col = col[col["zt"] >= COLLAPSE_ZT_MIN]
+            collapsed.append(col[["x", "zt", "ut", "wt"]].assign(**head)[["case", "x", "zt", "ut", "wt"]])
+        s = c.tables["surface"]
+        if not s.empty:
+            # the surface of every frame brought back to the start of the window by the fitted rise
+            t0, v_r = c.get("t_start"), c.get("v_r")
+            back = s.assign(z_s=s["z_s"] - v_r * (s["t"] - t0)).groupby("x_lab")["z_s"]
+            fit = c.get("surface_z0") - back.mean().index.to_numpy(float) * math.tan(math.radians(c.get("alpha_deg")))
+            lo, hi = hp.surface_fit_range(hp.HeapGeometry(**c.record["geometry"]),
+                                          c.record["rung_knobs"]["bin_dx"] * c.get("d_bar"))
+            x = back.mean().index.to_numpy(float)
+            surface.append(pd.DataFrame({**head, "x_lab": x, "z_s_mean": back.mean().to_numpy(),
+                                         "z_s_std": back.std().to_numpy(), "z_s_fit": fit + v_r * t0,
+                                         "in_fit": (x > lo) & (x < hi)}))
+        if not c.tables["deposit"].empty:
+            deposit.append(c.tables["deposit"].assign(**head)[["case", "x_lab", "c_s", "n"]])
+    out = {}
+    for name, parts in (("streamwise", streamwise), ("collapse", collapsed), ("surface_at_window_start", surface),
+                        ("deposit", deposit)):
+        if parts:
+            out[name] = pd.concat(parts, ignore_index=True)
+    return out
+
+
+# --------------------------------------------------------------------------- set-up
+def differences(cases: list[HeapCase]) -> list[str]:
+    """What differs from the paper's set-up, from the cases' records; one line per case for the overlap."""
+    if not cases:
+        return []
+    rec = cases[0].record
+    k, prm = rec["rung_knobs"], rec["parameters"]
+    d_ref = prm.get("d_ref", max(s["d"] for s in rec["species"]))
+    d_bar = mixture_mean_diameter(rec["species"]) if all("mean_volume" in s for s in rec["species"]) else d_ref
+    lightest = min(rec["contacts"], key=lambda c: c["t_c"])
+    same = [name for name, ours, paper in (("Gap T", k["T"], PAPER_T), ("feed height", k.get("feed_drop"),
+                                                                     PAPER_FEED_DROP))
+            if ours is not None and math.isclose(ours, paper, rel_tol=1e-6)]
+    out = [
+        f"Heap W = {k['W']:g} m long instead of the paper's {PAPER_W:g} m (its flow reaches q = 0 at x = 0.42 m), "
+        f"feed zone {k['feed_width'] * 1e3:g} mm wide: what 2 cores afford; the flowing layer is about "
+        f"{PAPER_W / k['W']:.1f}x shorter, so fewer streamwise bins lie away from the feed and the end wall "
+        "(0.2 ≤ x/L ≤ 0.9)." + (f" {' and '.join(same)} as the paper's." if same else ""),
+        f"One normal stiffness for every pair (LAMMPS gran/hooke/history), set so that the reference pair (mean "
+        f"diameter {d_ref * 1e3:g} mm) has the paper's t_c = {k['t_c'] * 1e3:g} ms; lighter pairs collide faster "
+        f"(the lightest, {lightest['name']}: t_c = {lightest['t_c'] * 1e3:.3g} ms). The paper gives every pair "
+        f"t_c = {PAPER_T_C * 1e3:g} ms (k_n ∝ m_eff).",
+        f"Time step dt = {k['dt_fraction']:g} × the shortest pair's t_c = t_c/{1 / k['dt_fraction']:.0f} = "
+        f"{rec['dt']:.3g} s (the paper: t_c/100 = {PAPER_DT:g} s).",
+        f"Averaging over {k['t_average']:g} s of steady filling (the paper: δt = {PAPER_T_AVERAGE:g} s).",
+        f"Bins in units of the mixture's number-mean diameter d̄ = {d_bar * 1e3:.3g} mm: Δx = {k['bin_dx']:g} d̄ = "
+        f"{k['bin_dx'] * d_bar * 1e3:.3g} mm, Δz = {k['bin_dz_phi']:g} d̄ = {k['bin_dz_phi'] * d_bar * 1e3:.2g} mm "
+        f"for φ and {k['bin_dz_u']:g} d̄ = {k['bin_dz_u'] * d_bar * 1e3:.2g} mm for u (the paper: 10, 0.5 and 1 mm).",
+        f"The paper's t_c = {PAPER_T_C * 1e3:g} ms is soft: k_n = {prm['k_n']:.3g} N/m. Fed particles hit the heap at "
+        "~1-2 m/s after falling ~0.1 m and overlap by tens of % of a diameter for one contact time; the static "
+        "bed, a few % under its own weight. Overlap scales as t_c: keeping the largest at 1 % would need t_c shorter "
+        "by the factor f below, i.e. f² stiffer contacts and f× smaller time steps (~100x and ~10x at f = 10). The "
+        "paper checked its kinematics against t_c = 0.1 ms (§2.1).",
+    ]
+    for c in cases:
+        ov = finite(c.status.get("max_overlap"))
+        if math.isfinite(ov):
+            f = ov / OVERLAP_LIMIT
+            out.append(f"{c.name}: largest overlap {ov:.1%} of the smallest diameter, {f:.0f}x the 1 % limit "
+                       f"(f = {f:.0f}: {f * f:.0f}x stiffer, {f:.0f}x smaller steps to meet it).")
+        else:
+            out.append(f"{c.name}: largest overlap not recorded (run status {c.status.get('status')}).")
+    return out
+
+
+# --------------------------------------------------------------------------- the record
+def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
+    """The heap's checks against Fan et al. (2013), its profiles, figures and set-up differences.
+
+    Parameters
+    ----------
+    scene_dir : Path
+        ``results/heap/<rung>``, holding ``table.csv`` and ``figures/``.
+    cases : dict of str to Path
+        Case directory name (e.g. ``mix~bi1-2/mdot~33``) to its analysed case directory.
+    """
+    loaded = sorted((load_case(name, path) for name, path in cases.items()),
+                    key=lambda c: (c.record["case"]["mixture"], c.feed_rate, c.name))
+    checks = []
+    for make in (alpha_check, rise_check, delta_check, tail_checks, methods_check, deposit_check):
+        for c in loaded:
+            made = make(c)
+            checks += made if isinstance(made, list) else [made]
+    checks.append(q_star_check(loaded))
+    return ValidationResult(checks=checks, profiles=profiles(loaded), figures=list(FIGURES),
+                            differences=differences(loaded))

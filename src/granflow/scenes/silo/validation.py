@@ -1,0 +1,375 @@
+"""The silo's validation record: Rubio-Largo, Maza & Hidalgo (2016) against our cases.
+
+:func:`validation` compares what the scene's analysis wrote for each finished case
+(``analysis/scalars.json``, ``fields.csv``, ``contact.csv``, ``flow.csv``) and the rung's
+``table.csv`` (the Beverloo fit over the orifices) with the paper; it recomputes no field.
+
+Checks, in the paper's order: Beverloo's C and k over the sweep (the paper gives neither);
+:math:`W_r/W_f` per case (its figure 2a, "excellent agreement"); the orifice velocity profile
+against :math:`\\sqrt{1-(r/R)^2}` (figure 5b) and the exponent of :math:`v_z(0) \\propto R^a`
+(:math:`a = 1/2`); the transition height :math:`h_c/R` per case and its trend over R (the
+collapse of figure 8); :math:`\\phi_{bulk}` (section 3, 0.60 ± 0.02); the partial kinetic
+pressure per unit volume fraction, smallest size over largest, at :math:`h_c` (figure 12); the
+fall of the contact pressure to the outlet (figure 6).
+
+Errors are one standard error of ours. The headline numbers (:math:`W_f`, the profile
+deviation, :math:`h_c/R`) carry the correlation-aware error of
+:func:`granflow.headline.measure_with_errors`, which re-analyses sub-windows of the steady
+window from the dumps; without dumps the analysis's own block errors stand in (the note says
+so). Fit parameters carry the fits' standard errors; field values the coarse-graining block
+errors of the analysis.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from granflow import headline
+from granflow.plotting import _pm
+from granflow.registry import finite
+from granflow.validation import Check, ValidationResult
+
+import granflow.scenes.silo.analysis as sl
+
+#: the silo scene's headline keys (``SiloScene.headline``) and, per key, the analysis's own error
+HEADLINE_FALLBACK = {"W_f": "W_f_se", "profile_deviation": None, "h_c_over_R": "h_c_over_R_se"}
+#: the paper's particle count (section 2)
+PAPER_N = 393_216
+#: the paper's time step, s, :math:`t_c/50` of two small particles (appendix)
+PAPER_DT = 6.3e-7
+PAPER_DT_FRACTION = 1 / 50
+#: the paper's Young's modulus, Pa (appendix)
+PAPER_Y = 120e9
+#: the paper's bulk volume fraction, 0.60 ± 0.02 (section 3)
+PHI_BULK = (0.58, 0.62)
+#: the contact pressure's fall is judged over 0 <= z <= CONTACT_SPAN R on the axis
+CONTACT_SPAN = 2.0
+#: the largest overlap a faithful run should keep, as a fraction of the smallest diameter
+OVERLAP_LIMIT = 0.01
+#: the scene's figures kept in the record
+FIGURES = ("fig05_vz_orifice", "fig08_kinetic_axis", "fig12_partial_over_phi", "fig13_beverloo")
+#: orifice profiles are kept up to this r/R
+PROFILE_R_MAX = 2.0
+
+
+# --------------------------------------------------------------------------- inputs
+@dataclass
+class SiloCase:
+    """What the analysis wrote for one case, and the errors of its headline numbers."""
+
+    name: str
+    path: Path
+    record: dict
+    status: dict
+    scalars: dict
+    fields: pd.DataFrame
+    contact: pd.DataFrame
+    flow: pd.DataFrame
+    errors: dict = field(default_factory=dict)
+    error_note: str = ""
+
+    def get(self, key: str) -> float:
+        return finite(self.scalars.get(key))
+
+    @property
+    def steady(self) -> bool:
+        return self.scalars.get("status") == "steady" and not self.fields.empty
+
+    @property
+    def why_not(self) -> str:
+        """Why a case has no steady fields, for the notes of its checks."""
+        if not self.scalars:
+            return "not analysed (no analysis/scalars.json)"
+        reason = self.scalars.get("status_reason") or self.status.get("reason") or ""
+        return f"not measured: case {self.scalars.get('status', '?')}" + (f" ({reason})" if reason else "")
+
+    @property
+    def R_over_rb(self) -> float:
+        return finite(self.record.get("R_over_rb"))
+
+
+def _table(path: Path) -> pd.DataFrame:
+    return pd.read_csv(path) if path.exists() and path.stat().st_size else pd.DataFrame()
+
+
+def load_case(name: str, path: Path) -> SiloCase:
+    """The case's record, run status, analysis scalars and tables (empty where absent), and its errors."""
+    path = Path(path)
+    record = json.loads((path / "params.json").read_text())
+    status = json.loads((path / "run" / "status.json").read_text())
+    scalars_file = path / "analysis" / "scalars.json"
+    scalars = json.loads(scalars_file.read_text()) if scalars_file.exists() else {}
+    case = SiloCase(name, path, record, status, scalars, *(_table(path / "analysis" / f"{t}.csv")
+                                                           for t in ("fields", "contact", "flow")))
+    case.errors, case.error_note = headline_errors(case)
+    return case
+
+
+def headline_errors(case: SiloCase) -> tuple[dict, str]:
+    """Standard error of each headline number and how it was obtained.
+
+    :func:`granflow.headline.measure_with_errors` over the rung's averaging time when the
+    case is steady and its dumps are there (correlation-aware: sub-windows of the steady
+    window, each analysed on its own); otherwise the analysis's own block errors
+    (:data:`HEADLINE_FALLBACK`, NaN where it has none).
+    """
+    fallback = {k: (case.get(v) if v else float("nan")) for k, v in HEADLINE_FALLBACK.items()}
+    dumps = case.status.get("dumps") or []
+    if not case.steady:
+        return fallback, ""
+    if not dumps or not all((case.path / "run" / d).exists() for d in dumps):
+        return fallback, "dumps absent: the analysis's block errors"
+    try:
+        m = headline.measure_with_errors("silo", case.path, case.record, case.record["rung_knobs"]["t_average"],
+                                         n_blocks=4)
+    except (OSError, ValueError, KeyError, IndexError, np.linalg.LinAlgError) as exc:
+        return fallback, f"measure_with_errors failed ({exc}): the analysis's block errors"
+    errors = {k: finite(m[k]["se"]) if k in m else fallback[k] for k in HEADLINE_FALLBACK}
+    w = m.get("W_f", {})
+    return errors, f"error: {w.get('se_method', 'block')} over {w.get('n_series', w.get('n_blocks'))} sub-windows"
+
+
+# --------------------------------------------------------------------------- sweep checks
+def beverloo_checks(table: pd.DataFrame) -> list[Check]:
+    """Beverloo's C and k from the rung's table (:meth:`SiloScene.table`, :func:`beverloo_fit`)."""
+    row = table.iloc[0].to_dict() if len(table) else {}
+    C, C_se, k, k_se = (finite(row.get(f"beverloo_{key}")) for key in ("C", "C_se", "k", "k_se"))
+    if math.isfinite(C):
+        note = (f"weighted fit of W = C ρ_b √g (2R − k d)^5/2 over {int(finite(row.get('beverloo_n')))} steady "
+                f"orifices (χ²/ν = {finite(row.get('beverloo_chi2_dof')):.2g}; errors scaled by it when > 1); "
+                "ρ_b = ρ_p φ_bulk averaged over the cases, d the number-mean diameter (k depends on that choice)")
+    else:
+        note = f"no fit: {row.get('beverloo_note') or 'no table.csv with a Beverloo fit'}"
+    paper = "not stated (the paper cites Beverloo 1961 and Mankoc 2007, its refs 6-7, without values)"
+    note += "; the paper gives no C or k, so there is nothing to compare with"
+    source = "§1 (refs 6-7)"
+    return [Check("Beverloo C", paper, source, C, C_se, note=note),
+            Check("Beverloo k", paper, source, k, k_se, note=note)]
+
+
+def velocity_exponent_check(cases: list[SiloCase]) -> Check:
+    """Exponent of :math:`v_c = |v_z(0)| \\propto R^a` over the steady cases (paper: 1/2)."""
+    ok = [c for c in cases if c.steady]
+    fit = sl.scaling_exponent([c.get("R") for c in ok], [c.get("v_c") for c in ok], [c.get("v_c_se") for c in ok])
+    note = (f"weighted fit of ln v_c against ln R over {fit['n']} orifices (v_c at the orifice centre, w = 2 r_b; "
+            "errors: coarse-graining block errors, scaled by χ²/ν when > 1); a Beverloo-like "
+            "v_c ∝ √(R − k'd) would show a larger apparent exponent at small R/d")
+    if fit["n"] < 2:
+        note = f"fewer than 2 steady orifices ({fit['n']}): no exponent"
+    return Check("v_z(0) ∝ R^a: exponent a", "1/2 (v_z ∝ √R)", "§3, Fig. 5", fit["exponent"], fit["exponent_se"],
+                 paper_range=(0.5, 0.5), note=note)
+
+
+def collapse_check(cases: list[SiloCase]) -> Check:
+    """Exponent of :math:`h_c \\propto R^\\beta` over the steady cases: 1 when the axis profiles collapse on z/R."""
+    ok = [c for c in cases if c.steady and math.isfinite(c.get("h_c_over_R"))]
+    R = np.array([c.get("R") for c in ok])
+    y = np.array([c.get("h_c_over_R") for c in ok])
+    se = np.array([c.errors.get("h_c_over_R", np.nan) for c in ok])
+    fit = sl.scaling_exponent(R, y * R, se * R)
+    if len(ok) >= 2:
+        w = 1 / se ** 2 if np.all(np.isfinite(se) & (se > 0)) else np.ones(len(y))
+        mean = np.sum(w * y) / np.sum(w)
+        mean_se = np.sqrt(1 / np.sum(w)) if np.all(np.isfinite(se)) else np.nan
+        h = ok[0].record["cg"]["node_spacing"]
+        note = (f"weighted fit of ln h_c against ln R over {len(ok)} orifices (w = 2 r_b); weighted mean h_c/R = "
+                f"{_pm(mean, mean_se)}, spread (std/mean) {np.std(y, ddof=1) / np.mean(y):.1%}; the paper gives no "
+                f"value of h_c/R, only the collapse. Not in the error: the peak is refined between nodes {h:g} r_b "
+                "apart (a skewed peak can be off by a third of that, a larger fraction of a small R), and the kernel "
+                "w = 2 r_b smooths small orifices more")
+    else:
+        note = f"fewer than 2 steady orifices with h_c ({len(ok)}): no exponent"
+    return Check("h_c ∝ R^β: exponent β", "1 (the axis profiles collapse on z/R)", "§3, Fig. 8",
+                 fit["exponent"], fit["exponent_se"], paper_range=(1.0, 1.0), note=note)
+
+
+# --------------------------------------------------------------------------- per-case checks
+def _not_measured(quantity: str, paper: str, source: str, case: SiloCase, **kw) -> Check:
+    return Check(quantity, paper, source, float("nan"), case=case.name, note=case.why_not, **kw)
+
+
+def surface_rate_check(case: SiloCase) -> Check:
+    q, paper, source = "W_r/W_f (surface rate over outflow)", "1 (\"excellent agreement\")", "§3, Fig. 2a"
+    if not case.steady:
+        return _not_measured(q, paper, source, case, paper_range=(1.0, 1.0))
+    W_f_se = case.errors.get("W_f", case.get("W_f_se"))
+    r = sl.surface_rate_ratio(case.flow, case.get("W_f"), W_f_se, case.get("t_start"), case.get("t_end"))
+    note = (f"W_r = ρ_p φ_bulk π R_c² × fall speed of the highest particle, mean of {r['n']} windows of "
+            f"{case.get('window'):g} s in the steady window (error: {r['W_r_se_method']}) = "
+            f"{_pm(r['W_r'], r['W_r_se'], '.4g')} kg/s; W_f = {_pm(case.get('W_f'), W_f_se, '.4g')} kg/s; "
+            "φ_bulk measured at half the fill height (the paper: a slab at the top surface)")
+    return Check(q, paper, source, r["ratio"], r["ratio_se"], case=case.name, paper_range=(1.0, 1.0), note=note)
+
+
+def profile_check(case: SiloCase) -> Check:
+    q = "orifice profile: rms of v_z(r)/v_z(0) − √(1−(r/R)²), r < 0.9R"
+    paper, source = "on the curve √(1−(r/R)²) (no deviation stated)", "Fig. 5b"
+    if not case.steady:
+        return _not_measured(q, paper, source, case)
+    w = case.record["cg"]["w_fields"]
+    note = (f"over {case.scalars.get('n_deviation', '?')} nodes of the orifice row (w = {w:g} r_b, "
+            f"{w / case.R_over_rb:.0%} of R). Shape, not a number: the rms is ≥ 0 by construction and biased "
+            "upwards by the noise and by the kernel's smoothing of the profile's edge, neither of which our "
+            "statistical error covers, so a paper range of 0 would only test that bias; read it as 'on average "
+            "within this fraction of v_z(0) of the curve'" + (f"; {case.error_note}" if case.error_note else ""))
+    return Check(q, paper, source, case.get("sqrt_profile_deviation"), case.errors.get("profile_deviation"),
+                 case=case.name, note=note)
+
+
+def transition_check(case: SiloCase) -> Check:
+    q, paper, source = "h_c/R (kinetic-pressure maximum on the axis)", "collapses on z/R (no value stated)", "Fig. 8"
+    if not case.steady:
+        return _not_measured(q, paper, source, case)
+    scan = ", ".join(f"{_pm(case.get(k), case.get(k + '_se'), '.2f')} at w = {k.rsplit('_w', 1)[1]} r_b"
+                     for k in sorted(case.scalars) if k.startswith("h_c_over_R_w") and not k.endswith("_se"))
+    spacing = case.record["cg"]["node_spacing"] / case.R_over_rb
+    note = ("main fields, w = 2 r_b" + (f"; kernel scan: {scan} (the paper: h_c does not move with w, Fig. 9)"
+                                         if scan else "")
+            + f"; nodes {spacing:.2f} R apart: a skewed peak's refined position can be off by a third of that "
+            "(not in the error)" + (f"; {case.error_note}" if case.error_note else ""))
+    return Check(q, paper, source, case.get("h_c_over_R"), case.errors.get("h_c_over_R"), case=case.name, note=note)
+
+
+def bulk_check(case: SiloCase) -> Check:
+    q, paper, source = "φ_bulk", "0.60 ± 0.02", "§3"
+    if not case.steady:
+        return _not_measured(q, paper, source, case, paper_range=PHI_BULK)
+    rec = case.record
+    phi, se = sl.bulk_volume_fraction(case.fields, rec["fill_height"], rec["R_c"], rec["r_b"])
+    note = ("mean φ over a slab of ±4 r_b at half the fill height, r < R_c − 3 r_b, over the steady window "
+            "(the paper: a slab touching the top surface); error: the nodes' block errors taken as fully "
+            "correlated (an upper bound)")
+    return Check(q, paper, source, phi, se, case=case.name, paper_range=PHI_BULK, note=note)
+
+
+def partial_check(case: SiloCase) -> Check:
+    q = "(p^k_s/φ_s)_smallest / (p^k_s/φ_s)_largest on the axis at h_c"
+    paper = "> 1 (\"the small particles carry a higher fraction of kinetic stress respect to their concentration\")"
+    source = "§3, Fig. 12"
+    if not case.steady:
+        return _not_measured(q, paper, source, case, paper_range=(1.0, math.inf))
+    r = sl.partial_ratio(case.fields, case.get("h_c"))
+    note = (f"species {r['small']} over {r['large']} at the axis node z = {r['z_node']:.3g} m nearest h_c, main "
+            "fields w = 2 r_b (the paper's Figs. 11-12: w = r_b/2); p^k_largest/p^k_smallest = "
+            f"{r['pk_large_over_small']:.3g} (the paper, Fig. 11: larger for bigger particles); errors: "
+            "coarse-graining block errors")
+    if r["small"] is None or r["small"] == r["large"]:
+        note = "fewer than two species with partial kinetic pressures and volume fractions"
+    return Check(q, paper, source, r["ratio"], r["ratio_se"], case=case.name, paper_range=(1.0, math.inf), note=note)
+
+
+def contact_check(case: SiloCase) -> Check:
+    q = f"contact pressure on the axis: rank correlation of p^c with z, 0 ≤ z ≤ {CONTACT_SPAN:g}R"
+    paper, source = "falls monotonically to zero at the outlet", "§3, Fig. 6"
+    if not case.steady:
+        return _not_measured(q, paper, source, case)
+    if case.contact.empty:
+        return Check(q, paper, source, float("nan"), case=case.name, note="no contact-stress table")
+    f = sl.contact_fall(case.contact, case.get("R"), CONTACT_SPAN)
+    note = (f"Spearman ρ over {f['n']} axis nodes (1: a monotonic fall towards the outlet; w = r_b/2 as the "
+            f"paper); p^c(z = 0)/p^c(z = {CONTACT_SPAN:g}R) = {_pm(f['ratio'], f['ratio_se'], '.2g')} (0 when it "
+            "vanishes at the outlet; the kernel reaches 2 r_b above the orifice plane)")
+    return Check(q, paper, source, f["rho_s"], case=case.name, note=note)
+
+
+# --------------------------------------------------------------------------- profiles
+def profiles(cases: list[SiloCase]) -> dict[str, pd.DataFrame]:
+    """Small tables behind the kept figures: orifice profiles, the axis pressures, the sweep."""
+    orifice, kinetic, partial, contact, sweep = [], [], [], [], []
+    for c in cases:
+        head = {"case": c.name, "R_over_rb": c.R_over_rb}
+        W_r = sl.surface_rate_ratio(c.flow, c.get("W_f"), c.get("W_f_se"), c.get("t_start"), c.get("t_end"))
+        sweep.append({**head, "status": c.scalars.get("status"), "D": 2 * c.get("R"), "W_f": c.get("W_f"),
+                      "W_f_se": c.errors.get("W_f", np.nan), "W_r": W_r["W_r"], "W_r_se": W_r["W_r_se"],
+                      "phi_c": c.get("phi_c"), "v_c": c.get("v_c"), "v_c_se": c.get("v_c_se"),
+                      "h_c_over_R": c.get("h_c_over_R"), "h_c_over_R_se": c.errors.get("h_c_over_R", np.nan),
+                      "phi_bulk": c.get("phi_bulk")})
+        if not c.steady:
+            continue
+        R = c.get("R")
+        o = sl.orifice_profiles(c.fields, R)
+        p = o["profile"][o["profile"]["r_over_R"] <= PROFILE_R_MAX]
+        orifice.append(pd.DataFrame({**head, "r_over_R": p["r_over_R"], "phi_norm": p["phi_norm"],
+                                     "phi_norm_se": p["phi_se"] / o["phi_c"], "vz_norm": p["vz_norm"],
+                                     "vz_norm_se": p["u_z_se"] / o["v_c"]}))
+        ax = sl.axis_profile(c.fields, "pk")
+        kinetic.append(pd.DataFrame({**head, "z_over_R": ax["z"] / R, "pk": ax["value"], "pk_se": ax["value_se"]}))
+        part = {**head, "z": ax["z"], "z_over_R": ax["z"] / R}
+        for s in sl.species_ids(c.fields, "pk"):
+            pk_s = sl.axis_profile(c.fields, f"pk_s{s}")
+            part.update({f"pk_s{s}": pk_s["value"], f"pk_s{s}_se": pk_s["value_se"],
+                         f"phi_s{s}": sl.axis_profile(c.fields, f"phi_s{s}")["value"]})
+        partial.append(pd.DataFrame(part))
+        if not c.contact.empty:
+            pc = sl.axis_profile(c.contact, "pc")
+            contact.append(pd.DataFrame({**head, "z_over_R": pc["z"] / R, "pc": pc["value"], "pc_se": pc["value_se"]}))
+    out = {"sweep": pd.DataFrame(sweep)}
+    for name, parts in (("orifice_profiles", orifice), ("kinetic_axis", kinetic), ("partial_kinetic_axis", partial),
+                        ("contact_axis", contact)):
+        if parts:
+            out[name] = pd.concat(parts, ignore_index=True)
+    return out
+
+
+# --------------------------------------------------------------------------- set-up
+def differences(cases: list[SiloCase]) -> list[str]:
+    """What differs from the paper's set-up, from the cases' records; one line per case for the overlap."""
+    if not cases:
+        return []
+    rec = cases[0].record
+    k = rec["rung_knobs"]
+    prm = rec["parameters"]
+    r_b = rec["r_b"]
+    radii = sorted(s["radius"] / r_b for s in rec["species"])
+    n = sorted({int(c.record["n_particles"]) for c in cases})
+    t_c = prm["t_c_min"]
+    out = [
+        f"Silo radius R_c = {k['R_c']:g} r_b filled to {k['fill_height']:g} r_b: {n[0]:,}"
+        + (f"-{n[-1]:,}" if n[-1] != n[0] else "") + f" particles, the paper's N = {PAPER_N:,} "
+        "(R_c not stated; the scene's paper rung: 50 r_b), which 2 cores cannot run; the discharge "
+        f"lasts {k['t_discharge']:g} s without re-insertion, so the steady window ends where the fill runs low.",
+        f"Young's modulus softened to Y = {k['Y_factor']:g} × {PAPER_Y / 1e9:g} GPa = {rec['Y'] / 1e9:.3g} GPa: "
+        f"shortest contact time t_c = {t_c:.3g} s (the paper's {PAPER_DT / PAPER_DT_FRACTION:.3g} s), so the run "
+        "needs far fewer steps; stiffness scales as Y^(4/5) through eq. 10.",
+        f"Time step dt = t_c/{1 / k['dt_fraction']:.0f} = {rec['dt']:.3g} s (the paper: t_c/50 = {PAPER_DT:.2g} s).",
+        "One normal stiffness for every pair (LAMMPS gran/hooke/history: eq. 10 for two r_b spheres, "
+        f"k_n = {rec['k_n']:.4g} N/m); the paper evaluates eq. 10 for each pair's R_eff and m_eff.",
+        f"Seven radii from {radii[0]:.4g} to {radii[-1]:g} r_b in equal steps of {np.diff(radii).mean():.4g} r_b, "
+        "equal numbers; the paper's text gives r_s = r_b/2 + r_b/16 and a step of r_b/16, which would make 8 sizes.",
+        "φ_bulk is measured in a slab at half the fill height, the paper's in a slab touching the top surface; the "
+        "partial kinetic pressures are compared at w = 2 r_b (the paper's Figs. 10-12: w = r_b/2).",
+    ]
+    for c in cases:
+        ov = finite(c.status.get("max_overlap"))
+        if math.isfinite(ov):
+            verdict = "within" if ov <= OVERLAP_LIMIT else f"{ov / OVERLAP_LIMIT:.1f}× over"
+            out.append(f"{c.name}: largest overlap {ov:.2%} of the smallest diameter ({verdict} the 1 % limit).")
+        else:
+            out.append(f"{c.name}: largest overlap not recorded (run status {c.status.get('status')}).")
+    return out
+
+
+# --------------------------------------------------------------------------- the record
+def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
+    """The silo's checks against Rubio-Largo et al. (2016), its profiles, figures and set-up differences.
+
+    Parameters
+    ----------
+    scene_dir : Path
+        ``results/silo/<rung>``, holding ``table.csv`` (with the Beverloo fit) and ``figures/``.
+    cases : dict of str to Path
+        Case directory name (e.g. ``R~6``) to its analysed case directory.
+    """
+    loaded = sorted((load_case(name, path) for name, path in cases.items()),
+                    key=lambda c: (np.nan_to_num(c.R_over_rb, nan=np.inf), c.name))
+    table = _table(Path(scene_dir) / "table.csv")
+    checks = beverloo_checks(table) + [velocity_exponent_check(loaded), collapse_check(loaded)]
+    for make in (surface_rate_check, profile_check, transition_check, bulk_check, partial_check, contact_check):
+        checks += [make(c) for c in loaded]
+    return ValidationResult(checks=checks, profiles=profiles(loaded), figures=list(FIGURES),
+                            differences=differences(loaded))

@@ -20,6 +20,7 @@ import shutil
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from . import provenance
@@ -252,6 +253,82 @@ def readme_table(summaries: list[dict]) -> str:
                         f"{_fmt(c['ours'], c['error'])}{unit} | {c['case']} | {s['rung']}, {size} | "
                         f"{s['cpu_hours']:.2f} | {c['verdict']} |")
     return "\n".join(rows) + "\n"
+
+
+# ------------------------------------------------------------------ helpers of the scenes' checks
+def time_average_errors(scene_name: str, case_dir: Path, record: dict, why_not: str = "",
+                        n_blocks: int = 4) -> dict:
+    """Headline values of a case with their time-average errors over the rung's averaging time.
+
+    :func:`granflow.headline.measure_with_errors` (correlation-aware errors, ``n_blocks`` blocks as the
+    cross-check); ``{"why": ...}`` when ``why_not`` says the case has no steady average, or when its
+    dumps cannot be read (the values stay, the errors are NaN).
+    """
+    from .headline import measure_with_errors
+
+    if why_not:
+        return {"why": why_not}
+    try:
+        return measure_with_errors(scene_name, case_dir, record, record["rung_knobs"]["t_average"],
+                                   n_blocks=n_blocks)
+    except (OSError, ValueError) as err:
+        return {"why": f"no time-average error: {type(err).__name__}: {err}"}
+
+
+def headline_errors(scene_name: str, case_dir: Path, record: dict, status: dict, fallback: dict,
+                    measured: bool = True) -> tuple[dict, str]:
+    """The standard error of each headline number, and a note on how it was obtained.
+
+    :func:`granflow.headline.measure_with_errors` over the rung's averaging time when the case
+    was ``measured`` and its dumps (``status["dumps"]``) are there; otherwise ``fallback``
+    (``{key: the analysis's own error}``, NaN where it has none), and the note says why.
+    """
+    from .headline import measure_with_errors
+
+    if not measured:
+        return dict(fallback), ""
+    dumps = status.get("dumps") or []
+    if not dumps or not all((Path(case_dir) / "run" / d).exists() for d in dumps):
+        return dict(fallback), "dumps absent: the analysis's own errors"
+    try:
+        m = measure_with_errors(scene_name, case_dir, record, record["rung_knobs"]["t_average"], n_blocks=4)
+    except (OSError, ValueError, KeyError, IndexError, np.linalg.LinAlgError) as exc:
+        return dict(fallback), f"measure_with_errors failed ({exc}): the analysis's own errors"
+    errors = {k: _finite(m[k]["se"]) if k in m else fallback[k] for k in fallback}
+    first = m.get(next(iter(fallback)), {})
+    return errors, (f"error: {first.get('se_method', 'block')} over "
+                    f"{first.get('n_series', first.get('n_blocks'))} sub-windows")
+
+
+def _finite(value) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        return float("nan")
+    return value if math.isfinite(value) else float("nan")
+
+
+def error_note(entry: dict | None, why: str = "") -> str:
+    """Which error a check carries, from one key's entry of :func:`time_average_errors`."""
+    if not entry or not math.isfinite(entry.get("se", float("nan"))):
+        return f"error: none ({why or 'no finite block values'})"
+    method = entry.get("se_method", "block")
+    if method == "block":
+        return f"error: block standard error of the time average ({entry.get('n_blocks')} blocks)"
+    text = (f"error: {method} standard error of the time average (statistical inefficiency "
+            f"g = {entry.get('g', float('nan')):.2g} over {entry.get('n_series', '?')} sub-windows")
+    if entry.get("reliable") is False:
+        text += "; fewer than 50 g sub-windows, so g may be underestimated"
+    text += ")"
+    if math.isfinite(entry.get("se_block", float("nan"))):
+        text += f"; {entry.get('n_blocks')}-block error {entry['se_block']:.2g}"
+    return text
+
+
+def sci(x: float, digits: int = 1) -> str:
+    """``1e6``, ``1.2e-4``: a number in the papers' short scientific form."""
+    mantissa, exponent = f"{float(x):.{digits - 1}e}".split("e")
+    return f"{mantissa}e{int(exponent)}"
 
 
 README_HEAD = """# Validation record

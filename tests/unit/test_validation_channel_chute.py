@@ -15,6 +15,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 import granflow.scenes.channel.validation as chv
+from granflow import headline
 import granflow.scenes.chute.validation as cuv
 from granflow.scenes.channel.analysis import JOP2015
 
@@ -91,7 +92,7 @@ def channel_case(tmp_path, name, status="steady", ratio=1.38, exponent=2.95, ove
 
 @pytest.fixture
 def channel_errors(monkeypatch):
-    monkeypatch.setattr(chv, "measure_with_errors",
+    monkeypatch.setattr(headline, "measure_with_errors",
                         _fake_errors({"u_ratio": 0.01, "eq31_exponent": 0.05, "delta_over_W": 0.004,
                                       "sigma_xx_over_W": 0.01}))
 
@@ -108,7 +109,7 @@ def test_channel_ratio_inside_and_outside_the_papers_range(tmp_path, channel_err
     result = chv.validation(tmp_path, cases)
     inside = _by(result.checks, "W~20/phi~0.6", "u_max/u_slip")
     assert inside.paper_range == (1.37, 1.40) and inside.verdict == "within the paper's range"
-    assert inside.error == 0.01 and "autocorrelation-aware" in inside.note
+    assert inside.error == 0.01 and "error: autocorrelation standard error" in inside.note
     outside = _by(result.checks, "W~20/phi~0.61", "u_max/u_slip")
     assert outside.difference == pytest.approx(1.21 / 1.37 - 1.0)     # -11.7 %
     assert outside.verdict.startswith("differs by -11.7 %")
@@ -155,7 +156,7 @@ def test_channel_case_without_a_steady_state_gives_nan_and_the_reason(tmp_path, 
     def no_dumps(*args, **kwargs):
         raise AssertionError("a case without a steady state must not be measured")
 
-    monkeypatch.setattr(chv, "measure_with_errors", no_dumps)
+    monkeypatch.setattr(headline, "measure_with_errors", no_dumps)
     result = chv.validation(tmp_path, {"W~20/phi~0.6": channel_case(tmp_path, "d", status="no_steady_state")})
     assert len(result.checks) == 7
     for check in result.checks:
@@ -220,7 +221,7 @@ def chute_case(tmp_path, name, theta, status="steady", phi_bulk=0.57, ratio_over
 
 @pytest.fixture
 def chute_errors(monkeypatch):
-    monkeypatch.setattr(cuv, "measure_with_errors",
+    monkeypatch.setattr(headline, "measure_with_errors",
                         _fake_errors({"stress_ratio_over_tan": 0.004, "bagnold_A": 0.001, "phi_bulk": 0.002}))
 
 

@@ -28,9 +28,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from granflow.headline import measure_with_errors
 from granflow.registry import finite
-from granflow.validation import Check, ValidationResult
+from granflow.validation import Check, ValidationResult, error_note, sci, time_average_errors
 from postproc.autocorr import mean_error
 
 from .analysis import JOP2015, ChannelAnalysis, analyse_profile
@@ -96,46 +95,14 @@ def load_case(name: str, path: Path) -> ChannelCase:
     return ChannelCase(name, path, record, status, scalars, why_not, analysis)
 
 
-def time_average_errors(case: ChannelCase) -> dict:
-    """Headline values with their time-average errors over the rung's averaging window.
-
-    :func:`granflow.headline.measure_with_errors` with 4 blocks; ``{"why": ...}`` when the case
-    has no steady average or its dumps cannot be read.
-    """
-    if case.why_not:
-        return {"why": case.why_not}
-    try:
-        return measure_with_errors("channel", case.path, case.record, case.record["rung_knobs"]["t_average"],
-                                   n_blocks=4)
-    except (OSError, ValueError) as err:  # dumps removed or unreadable: values stay, errors are NaN
-        return {"why": f"no time-average error: {type(err).__name__}: {err}"}
 
 
-def error_note(entry: dict | None, why: str = "") -> str:
-    """Which error a check carries, from an entry of :func:`time_average_errors`."""
-    if not entry or not math.isfinite(entry.get("se", NAN)):
-        return f"error: none ({why or 'no finite block values'})"
-    method = entry.get("se_method", "block")
-    if method == "autocorrelation":
-        text = (f"error: autocorrelation-aware standard error of the time average (statistical inefficiency "
-                f"g = {entry.get('g', NAN):.2g} over {entry.get('n_series', '?')} sub-blocks")
-        if entry.get("reliable") is False:
-            text += "; fewer than 50 g sub-blocks, so g may be underestimated"
-        text += ")"
-        if math.isfinite(entry.get("se_block", NAN)):
-            text += f"; {entry.get('n_blocks')}-block error {entry['se_block']:.2g}"
-        return text
-    return f"error: {method} standard error of the time average ({entry.get('n_blocks')} blocks)"
 
 
 def _value(case: ChannelCase, key: str) -> float:
     return finite(case.scalars.get(key))
 
 
-def _sci(x: float, digits: int = 1) -> str:
-    """``1e6``, ``1.2e-4``: a number in the papers' short scientific form."""
-    mantissa, exponent = f"{float(x):.{digits - 1}e}".split("e")
-    return f"{mantissa}e{int(exponent)}"
 
 
 def _bins(n: int) -> str:
@@ -351,7 +318,7 @@ def overlap_line(case: ChannelCase) -> str:
     return (line + f", above the {100 * OVERLAP_LIMIT:g} % limit: " +
             ("the paper uses the same k_n = 1e6, so its contacts overlap alike at equal W (σ_xx ∝ W, §3.1: more in "
              "its wider channels)" if same else
-             f"k_n = {_sci(k_n)} is softer than the paper's 1e6, so contacts overlap more than the paper's") +
+             f"k_n = {sci(k_n)} is softer than the paper's 1e6, so contacts overlap more than the paper's") +
             ". The paper (§3.2, fig. 10) finds φ and u_y independent of k_n ≥ 1e5 (but for φ at k_n = 1e5, "
             "φ̄ = 0.59), while du_y/dx and T in the dense shearing and plug zones depend on k_n")
 
@@ -366,7 +333,7 @@ def differences(loaded: list[ChannelCase]) -> list[str]:
     widths = ", ".join(sorted({f"{c.record['parameters']['W']:g}" for c in loaded}, key=float))
     counts = ", ".join(str(c.record["parameters"]["n_particles"]) for c in loaded)
     dt, t_c = float(first.record["dt"]), float(p["t_c_min"])
-    paper_dt = f"{_sci(PAPER_DT, 2)} √(d_p/g) at k_n = 1e6"
+    paper_dt = f"{sci(PAPER_DT, 2)} √(d_p/g) at k_n = 1e6"
     if math.isclose(float(k["k_n"]), PAPER_K_N):
         paper_dt += f", t_c/{t_c / PAPER_DT:.1f}"
     out = [
@@ -378,7 +345,7 @@ def differences(loaded: list[ChannelCase]) -> list[str]:
         f"criterion held (drift < {first.record['protocol']['steady_rel_tol']:.0%}, fluctuation < "
         f"{first.record['protocol']['steady_fluct_tol']:.0%} over {first.record['protocol']['steady_window']:g} "
         f"√(d_p/g); at most {k['t_flow_max']:g}) instead of the paper's {PAPER_T_STEADY:g} (§2)",
-        f"k_n = {_sci(k['k_n'])} (paper default {_sci(PAPER_K_N)}, App. A); "
+        f"k_n = {sci(k['k_n'])} (paper default {sci(PAPER_K_N)}, App. A); "
         f"dt = {dt:.3g} √(d_p/g) = t_c/{t_c / dt:.1f} "
         f"of the shortest pair contact (paper: {paper_dt}, App. A)",
     ]
@@ -408,7 +375,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
     loaded = [load_case(name, path) for name, path in cases.items()]
     checks, velocity, rheology = [], [], []
     for case in loaded:
-        checks += case_checks(case, time_average_errors(case))
+        checks += case_checks(case, time_average_errors("channel", case.path, case.record, case.why_not))
         if case.analysis is not None:
             velocity.append(velocity_profile(case))
             rheology.append(rheology_points(case.analysis).assign(case=case.name))

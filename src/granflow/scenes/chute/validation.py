@@ -28,9 +28,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from granflow.headline import measure_with_errors
 from granflow.registry import finite
-from granflow.validation import Check, ValidationResult
+from granflow.validation import Check, ValidationResult, error_note, sci, time_average_errors
 
 from .analysis import bulk_mask
 
@@ -105,36 +104,8 @@ def load_case(name: str, path: Path) -> ChuteCase:
     return ChuteCase(name, path, record, status, scalars, why_not, profile)
 
 
-def time_average_errors(case: ChuteCase) -> dict:
-    """Headline values with their time-average errors over the rung's averaging window.
-
-    :func:`granflow.headline.measure_with_errors` with 4 blocks; ``{"why": ...}`` when the case
-    has no steady average or its dumps cannot be read.
-    """
-    if case.why_not:
-        return {"why": case.why_not}
-    try:
-        return measure_with_errors("chute", case.path, case.record, case.record["rung_knobs"]["t_average"],
-                                   n_blocks=4)
-    except (OSError, ValueError) as err:  # dumps removed or unreadable: values stay, errors are NaN
-        return {"why": f"no time-average error: {type(err).__name__}: {err}"}
 
 
-def error_note(entry: dict | None, why: str = "") -> str:
-    """Which error a check carries, from an entry of :func:`time_average_errors`."""
-    if not entry or not math.isfinite(entry.get("se", NAN)):
-        return f"error: none ({why or 'no finite block values'})"
-    method = entry.get("se_method", "block")
-    if method == "autocorrelation":
-        text = (f"error: autocorrelation-aware standard error of the time average (statistical inefficiency "
-                f"g = {entry.get('g', NAN):.2g} over {entry.get('n_series', '?')} sub-blocks")
-        if entry.get("reliable") is False:
-            text += "; fewer than 50 g sub-blocks, so g may be underestimated"
-        text += ")"
-        if math.isfinite(entry.get("se_block", NAN)):
-            text += f"; {entry.get('n_blocks')}-block error {entry['se_block']:.2g}"
-        return text
-    return f"error: {method} standard error of the time average ({entry.get('n_blocks')} blocks)"
 
 
 # ------------------------------------------------------------------------- measures on the profile
@@ -264,10 +235,6 @@ def height_profile(case: ChuteCase) -> pd.DataFrame:
 
 
 # ------------------------------------------------------------------------- set-up differences
-def _sci(x: float, digits: int = 1) -> str:
-    """``2e5``, ``1.2e-4``: a number in the papers' short scientific form."""
-    mantissa, exponent = f"{float(x):.{digits - 1}e}".split("e")
-    return f"{mantissa}e{int(exponent)}"
 
 
 def expected_regime(theta: float) -> str:
@@ -308,7 +275,7 @@ def overlap_line(case: ChuteCase) -> str:
         why = ("at the paper's k_n = 2e5 the overlap is set by the load (the weight above a contact), so the paper's "
                "beds overlap alike at equal depth and more in its deeper ones")
     else:
-        why = (f"k_n = {_sci(k_n)} is {PAPER_K_N / k_n:.3g}x softer than the paper's 2e5, so contacts overlap that "
+        why = (f"k_n = {sci(k_n)} is {PAPER_K_N / k_n:.3g}x softer than the paper's 2e5, so contacts overlap that "
                f"much more than the paper's at equal depth")
     return line + f", above the {100 * OVERLAP_LIMIT:g} % limit: {why}"
 
@@ -324,10 +291,10 @@ def differences(loaded: list[ChuteCase]) -> list[str]:
         f"box: {k['Lx']:g} x {k['Ly']:g} d periodic, bed H = {k['H']:g} d nominal, {p['n_particles']} particles "
         f"(paper: 20 x 10 d lateral, as config/scenes/chute.yaml's rung paper records, H = 10-100 d): the smaller "
         f"box affords the rung {first.record['rung']!r}; a narrower periodic cell fluctuates more",
-        f"contacts: k_n = {_sci(k['k_n'])} m g/d (paper {_sci(PAPER_K_N)}), "
+        f"contacts: k_n = {sci(k['k_n'])} m g/d (paper {sci(PAPER_K_N)}), "
         f"γ_n = {p['xi_n']:.3g}, γ_t = {p['xi_t']:.3g}, "
         f"μ = {p['friction']:g} (paper: 50, 0, 0.5); dt = {dt:.3g} √(d/g) = t_c/{t_c / dt:.1f} (paper: "
-        f"{_sci(PAPER_DT)} = t_c/{PAPER_T_C / PAPER_DT:.1f} at its k_n): a longer step to afford the rung "
+        f"{sci(PAPER_DT)} = t_c/{PAPER_T_C / PAPER_DT:.1f} at its k_n): a longer step to afford the rung "
         f"(its choice is argued in config/scenes/chute.yaml)",
         f"rough base: the settled particles with centres below {p['base_height']:g} d frozen (paper: a layer taken "
         f"from a random packing)",
@@ -353,7 +320,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
         Case directory name (``theta~22``) to its analysed directory.
     """
     loaded = sorted((load_case(name, path) for name, path in cases.items()), key=lambda c: c.theta)
-    errors = {c.name: time_average_errors(c) for c in loaded}
+    errors = {c.name: time_average_errors("chute", c.path, c.record, c.why_not) for c in loaded}
     checks = [check for c in loaded for check in case_checks(c, errors[c.name])]
     checks += sweep_checks(loaded, errors)
     heights = [height_profile(c) for c in loaded if not c.why_not]

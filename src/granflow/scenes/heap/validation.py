@@ -26,10 +26,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from granflow import headline
 from granflow.plotting import _pm
 from granflow.registry import finite
 from granflow.validation import Check, ValidationResult
+from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.heap.analysis as hp
 from .pipeline import mixture_mean_diameter
@@ -130,28 +130,11 @@ def load_case(name: str, path: Path) -> HeapCase:
     return case
 
 
-def headline_errors(case: HeapCase) -> tuple[dict, str]:
-    """Standard error of each headline number and how it was obtained.
-
-    :func:`granflow.headline.measure_with_errors` over the rung's averaging time when the
-    case was analysed and its dumps are there (correlation-aware: sub-windows of the
-    averaging window, each analysed on its own); otherwise the analysis's own errors
-    (:data:`HEADLINE_FALLBACK`, NaN where it has none).
-    """
+def headline_errors(case) -> tuple[dict, str]:
+    """Standard error of each headline number and how it was obtained
+    (:func:`granflow.validation.headline_errors`; the fallback is :data:`HEADLINE_FALLBACK`)."""
     fallback = {k: (case.get(v) if v else float("nan")) for k, v in HEADLINE_FALLBACK.items()}
-    dumps = case.status.get("dumps") or []
-    if not case.measured:
-        return fallback, ""
-    if not dumps or not all((case.path / "run" / d).exists() for d in dumps):
-        return fallback, "dumps absent: the analysis's own errors"
-    try:
-        m = headline.measure_with_errors("heap", case.path, case.record, case.record["rung_knobs"]["t_average"],
-                                         n_blocks=4)
-    except (OSError, ValueError, KeyError, IndexError, np.linalg.LinAlgError) as exc:
-        return fallback, f"measure_with_errors failed ({exc}): the analysis's own errors"
-    errors = {k: finite(m[k]["se"]) if k in m else fallback[k] for k in HEADLINE_FALLBACK}
-    a = m.get("alpha", {})
-    return errors, f"error: {a.get('se_method', 'block')} over {a.get('n_series', a.get('n_blocks'))} sub-windows"
+    return validation_errors("heap", case.path, case.record, case.status, fallback, case.measured)
 
 
 def _with(note: str, case: HeapCase, errors: bool = False) -> str:

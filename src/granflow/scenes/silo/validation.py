@@ -29,10 +29,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from granflow import headline
 from granflow.plotting import _pm
 from granflow.registry import finite
 from granflow.validation import Check, ValidationResult
+from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.silo.analysis as sl
 
@@ -110,28 +110,11 @@ def load_case(name: str, path: Path) -> SiloCase:
     return case
 
 
-def headline_errors(case: SiloCase) -> tuple[dict, str]:
-    """Standard error of each headline number and how it was obtained.
-
-    :func:`granflow.headline.measure_with_errors` over the rung's averaging time when the
-    case is steady and its dumps are there (correlation-aware: sub-windows of the steady
-    window, each analysed on its own); otherwise the analysis's own block errors
-    (:data:`HEADLINE_FALLBACK`, NaN where it has none).
-    """
+def headline_errors(case) -> tuple[dict, str]:
+    """Standard error of each headline number and how it was obtained
+    (:func:`granflow.validation.headline_errors`; the fallback is :data:`HEADLINE_FALLBACK`)."""
     fallback = {k: (case.get(v) if v else float("nan")) for k, v in HEADLINE_FALLBACK.items()}
-    dumps = case.status.get("dumps") or []
-    if not case.steady:
-        return fallback, ""
-    if not dumps or not all((case.path / "run" / d).exists() for d in dumps):
-        return fallback, "dumps absent: the analysis's block errors"
-    try:
-        m = headline.measure_with_errors("silo", case.path, case.record, case.record["rung_knobs"]["t_average"],
-                                         n_blocks=4)
-    except (OSError, ValueError, KeyError, IndexError, np.linalg.LinAlgError) as exc:
-        return fallback, f"measure_with_errors failed ({exc}): the analysis's block errors"
-    errors = {k: finite(m[k]["se"]) if k in m else fallback[k] for k in HEADLINE_FALLBACK}
-    w = m.get("W_f", {})
-    return errors, f"error: {w.get('se_method', 'block')} over {w.get('n_series', w.get('n_blocks'))} sub-windows"
+    return validation_errors("silo", case.path, case.record, case.status, fallback, case.steady)
 
 
 # --------------------------------------------------------------------------- sweep checks

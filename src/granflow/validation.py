@@ -196,6 +196,11 @@ def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs
     Returns the summary. Refuses (ValueError) a record over :data:`MAX_SCENE_BYTES`.
     """
     out = Path(out)
+    # the code that writes the record; the record's own files (validation/) do not make it dirty
+    record_git = provenance.git_state()
+    files = record_git["dirty_files"]
+    record_dirty = ([f for f in files if not f.startswith("validation/")] if isinstance(files, list)
+                    else record_git["dirty"])
     if out.exists():
         shutil.rmtree(out)
     (out / "profiles").mkdir(parents=True)
@@ -213,11 +218,10 @@ def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs
     for rel, path in case_dirs.items():
         (out / "logs" / (rel.replace("/", "_") + ".txt")).write_text("\n".join(key_log_lines(Path(path))) + "\n")
     commits = sorted({c["granflow_commit"] for c in cases if c["granflow_commit"]})
-    record_git = provenance.git_state()
     summary = {
         "scene": scene_name, "rung": rung, "paper": paper,
         "granflow_commits": commits,
-        "record_commit": record_git["commit"], "record_dirty": record_git["dirty"],
+        "record_commit": record_git["commit"], "record_dirty": record_dirty,
         "lammps_versions": sorted({str(c["lammps_version"]) for c in cases}),
         "cpu_hours": sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"])),
         "cases": cases, "checks": checks, "differences": result.differences,

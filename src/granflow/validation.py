@@ -157,7 +157,9 @@ def key_log_lines(case_dir: Path, limit: int = 40) -> list[str]:
 
 def case_summary(case_dir: Path) -> dict:
     """Provenance of one case (commit, LAMMPS version, status, CPU-hours) for the record."""
-    prov = provenance.case_provenance(case_dir)
+    # the provenance written right after the run (rule provenance), else as of now
+    written = case_dir / "provenance.json"
+    prov = json.loads(written.read_text()) if written.exists() else provenance.case_provenance(case_dir)
     status = json.loads((case_dir / "run" / "status.json").read_text())
     record = json.loads((case_dir / "params.json").read_text())
     cpu = prov.get("cpu_seconds")
@@ -166,6 +168,7 @@ def case_summary(case_dir: Path) -> dict:
         # the commit that finished the run (runs before it was recorded: the record's commit)
         "granflow_commit": status.get("granflow_commit", prov["granflow_commit"]),
         "granflow_dirty": status.get("granflow_dirty", prov["granflow_dirty"]),
+        "granflow_dirty_files": prov.get("granflow_dirty_files", []) if "granflow_commit" not in status else None,
         "lammps_version": prov["lammps_version"], "ranks": prov["ranks"],
         "cpu_hours": cpu / 3600.0 if isinstance(cpu, (int, float)) else float("nan"),
         "wall_hours": (prov["wall_seconds"] / 3600.0 if isinstance(prov.get("wall_seconds"), (int, float))

@@ -55,15 +55,23 @@ rule validation_readme:
 
 
 def validation_report_targets():
-    """The committed record's check tables, shown in the report of any campaign (section "validation")."""
+    """The committed record's check tables, shown in the report of any other campaign (section
+    "validation"); the validation campaign's report shows the record it writes itself."""
+    if RUNG == "validation":
+        return []
     found = sorted(p.parent.name for p in Path(workflow.basedir, "validation").glob("*/checks.csv"))
     return [f"{RESULTS}/report/validation/{name}.csv" for name in found]
+
+
+def committed_checks(wildcards):
+    """A committed record's checks.csv, in the checkout (whatever the working directory)."""
+    return str(Path(workflow.basedir, "validation", wildcards.recorded, "checks.csv"))
 
 
 rule validation_report:
     """Copy a committed record's checks.csv into the report (the record itself stays as committed)."""
     input:
-        checks="validation/{recorded}/checks.csv",
+        checks=committed_checks,
     output:
         checks=report(RESULTS + "/report/validation/{recorded}.csv", caption="../report/validation_record.rst",
                       category="validation", subcategory="{recorded}"),

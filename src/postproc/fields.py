@@ -142,20 +142,38 @@ than the other fields (:math:`w = 2 r_b`): run a second accumulator with
 ``fields=("sigmac", "pc")`` and its own kernel, and pass it the same frames and
 contacts; it deposits nothing per particle.
 
-Standard errors come from ``n_blocks`` contiguous blocks of frames (fewer if
-there are fewer frames): every field is derived per block from the block's
-averaged primitives and
+Standard errors allow for the correlation of consecutive frames. To bound
+memory for long runs, frames are summed into at most ``16 n_blocks``
+sub-blocks of equal length (adjacent sub-blocks merge pairwise when full, so
+between ``8 n_blocks`` and ``16 n_blocks`` of them once that many frames were
+accumulated; one frame each before). Every field :math:`f` is derived from
+each sub-block's averaged primitives, exactly as from the average over all
+frames, and ``<column>_se`` is the error of the time average of that series
+:math:`f_i` with its statistical inefficiency :math:`g`
+(:func:`postproc.autocorr.weighted_mean_error`,
+:func:`postproc.blocks.correlated_errors`):
 
 .. math::
 
-    \\mathrm{se}(f) = \\frac{\\operatorname{std}_{\\mathrm{ddof}=1}(f_\\mathrm{block})}
-    {\\sqrt{n_\\mathrm{blocks}}} .
+    \\mathrm{se}_g(f) = \\sqrt{g\\,\\frac{n}{n-1}\\,
+    \\frac{\\sum_i c_i^2 (f_i - \\bar f)^2}{(\\sum_i c_i)^2}}
 
-To bound memory for long runs, frames are summed into at most
-``16 n_blocks`` sub-blocks of equal length (adjacent sub-blocks merge pairwise
-when full); blocks are then formed from whole sub-blocks, so block lengths are
-equal to within one sub-block (exactly equal to within one frame while fewer
-than ``16 n_blocks`` frames were accumulated).
+(:math:`c_i` frames in sub-block :math:`i`, :math:`n` sub-blocks). While
+:math:`g` is not reliable (:math:`n < 50\\,g`, emcee's criterion) the error is
+the larger of :math:`\\mathrm{se}_g` and the block error
+(:func:`postproc.autocorr.combined_error`), which is derived likewise from
+``n_blocks`` contiguous blocks formed from whole sub-blocks (block lengths
+equal to within one sub-block):
+
+.. math::
+
+    \\mathrm{se}_\\mathrm{block}(f) = \\frac{\\operatorname{std}_{\\mathrm{ddof}=1}(f_\\mathrm{block})}
+    {\\sqrt{n_\\mathrm{blocks}}} ;
+
+with fewer than four finite sub-blocks it is the block error alone. The block
+error stays available as a cross-check (:attr:`FieldAccumulator.block_errors`).
+A node whose field is NaN in some sub-blocks (it held no mass then) takes
+:math:`\\mathrm{se}_g` from its finite sub-blocks.
 """
 from __future__ import annotations
 
@@ -166,7 +184,7 @@ from typing import Callable, Iterable, Sequence
 import numpy as np
 import pandas as pd
 
-from .blocks import _SUBBLOCKS_PER_BLOCK, ConcludedResult, _BlockedSums
+from .blocks import _SUBBLOCKS_PER_BLOCK, ConcludedResult, _BlockedSums, time_average_errors
 from .contacts import ContactFrame, branch_quadrature
 from .coordinates import XCoordinates
 from .frame import ParticleFrame
@@ -360,7 +378,7 @@ def _derive_species(mean, fields, components, species, species_ids) -> dict[str,
 
 
 class FieldAccumulator(ConcludedResult):
-    """Time-averaged coarse-grained fields with block standard errors.
+    """Time-averaged coarse-grained fields with correlation-aware standard errors.
 
     Parameters
     ----------
@@ -380,7 +398,9 @@ class FieldAccumulator(ConcludedResult):
         ``contact_stress_volume``) are omitted when the first frame lacks them
         (see :attr:`omitted_fields`). Default :data:`FIELDS`.
     n_blocks : int
-        Number of contiguous frame blocks for standard errors (at least 2).
+        Number of contiguous frame blocks of the block error (at least 2), which
+        the standard errors never fall below while the autocorrelation estimate is
+        not reliable; frames are kept in ``16 n_blocks`` sub-blocks (module docstring).
     species : sequence of int, optional
         Particle type ids; adds the per-species partials of :data:`SPECIES_FIELDS`
         (module docstring). Every particle's type must be listed.
@@ -464,6 +484,7 @@ class FieldAccumulator(ConcludedResult):
         self._contact_source: str | None = None  # "contacts", "per_atom" or None
         self._node_volumes: np.ndarray | None = None
         self._result: pd.DataFrame | None = None
+        self._block_errors: pd.DataFrame | None = None
 
     @property
     def components(self) -> tuple[str, ...]:
@@ -519,8 +540,12 @@ class FieldAccumulator(ConcludedResult):
             One row per node: node coordinate columns (``x, x_lo, x_hi`` for
             bins in ``x``), then the field columns (:func:`field_columns`),
             then the species partials (:func:`species_columns`), then
-            ``<column>_se`` for each of these. Velocity, spin and temperature
-            are NaN in nodes that never held mass.
+            ``<column>_se`` for each of these: the standard error of the time
+            average allowing for autocorrelation, at least the block error
+            while the autocorrelation estimate is not reliable (module
+            docstring; the block errors alone are in :attr:`block_errors`).
+            Velocity, spin and temperature are NaN in nodes that never held
+            mass.
         """
         if not self._prepared:
             raise RuntimeError("FieldAccumulator.conclude() called before prepare()")
@@ -529,17 +554,26 @@ class FieldAccumulator(ConcludedResult):
         mean = self._sums.total_mean()
         self._check_coverage(mean)
         values = self._derive(mean)
-        blocks = [self._derive(mean) for mean in self._sums.block_means(self.n_blocks)]
-        errors = {}
-        for column in values:
-            stack = np.array([b[column] for b in blocks])
-            if len(blocks) < 2:
-                errors[f"{column}_se"] = np.full(stack.shape[1], np.nan)
-            else:
-                errors[f"{column}_se"] = stack.std(axis=0, ddof=1) / np.sqrt(len(blocks))
-        columns = {**self.kernel.node_columns(self.coordinates), **values, **errors}
-        self._result = pd.DataFrame(columns)
+        se, se_block = time_average_errors(self._sums, self._derive, list(values), self.n_blocks)
+        nodes = self.kernel.node_columns(self.coordinates)
+        errors = {f"{column}_se": se[column] for column in values}
+        self._block_errors = pd.DataFrame({**nodes, **{f"{c}_se": se_block[c] for c in values}})
+        self._result = pd.DataFrame({**nodes, **values, **errors})
         return self._result
+
+    @property
+    def block_errors(self) -> pd.DataFrame:
+        """The block errors, the cross-check of ``<column>_se`` (module docstring).
+
+        Same rows and columns as :attr:`result` without the field values: node
+        coordinates, then ``<column>_se`` holding
+        :math:`\\operatorname{std}_{\\mathrm{ddof}=1}(f_\\mathrm{block})/\\sqrt{n_\\mathrm{blocks}}`
+        (NaN with fewer than two blocks). Kept out of :attr:`result` so that every
+        column of the result not ending in ``_se`` is a field.
+        """
+        if self._block_errors is None:
+            raise RuntimeError("FieldAccumulator.block_errors read before conclude()")
+        return self._block_errors
 
     def _check_coverage(self, mean: np.ndarray) -> None:
         """Set :attr:`coverage` and warn when the grid holds almost none of the particles.

@@ -203,7 +203,9 @@ def test_steady_rate_error_covers_a_rate_with_correlated_noise():
 def test_combined_error_trusts_g_only_when_the_series_resolves_it():
     rng = np.random.default_rng(5)
     long = mean_error(ar1(rng, 0.5, 20_000))          # g = 3, n = 20000 >= 150: reliable
-    assert long.reliable and combined_error(long, 10 * long.se) == (long.se, "autocorrelation")
+    assert long.reliable and combined_error(long, long.se) == (long.se, "autocorrelation")
+    # blocks implying a far larger inefficiency (g_b = 400 x 3 = 1200, 50 g_b > n) overrule it
+    assert combined_error(long, 20 * long.se) == (20 * long.se, "max(autocorrelation, block)")
     short = mean_error(ar1(rng, 0.5, 40))             # 40 < 50 g: not reliable
     assert not short.reliable
     assert combined_error(short, 10 * short.se) == (10 * short.se, "max(autocorrelation, block)")

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from postproc.blocks import _SUBBLOCKS_PER_BLOCK, ConcludedResult, _BlockedSums
+from postproc.blocks import _SUBBLOCKS_PER_BLOCK, ConcludedResult, _BlockedSums, time_average_errors
 from postproc.frame import ParticleFrame
 
 from .surface import HeapGeometry, SurfaceFit, _volume_pairs
@@ -133,9 +133,13 @@ class KinematicsAccumulator(ConcludedResult):
 
     As in :mod:`postproc.fields`, :math:`u_{std}` counts fluctuations of the
     bin's mean between frames as well as between particles. Standard errors
-    ``u_se``, ``w_se`` come from ``n_blocks`` contiguous blocks of frames,
-    :math:`\\mathrm{std}_{ddof=1}(u_{block})/\\sqrt{n_{blocks}}` (NaN with fewer
-    than two blocks).
+    ``u_se``, ``w_se`` allow for the correlation of consecutive frames, as in
+    :mod:`postproc.fields` (:func:`postproc.blocks.time_average_errors`): the
+    error of the time average of the velocity's series over sub-blocks of
+    frames with its statistical inefficiency :math:`g`; while :math:`g` is not
+    reliable (fewer than :math:`50\\,g` sub-blocks) at least the block error
+    :math:`\\mathrm{std}_{ddof=1}(u_{block})/\\sqrt{n_{blocks}}` over ``n_blocks``
+    contiguous blocks (:func:`postproc.autocorr.combined_error`).
 
     Parameters
     ----------
@@ -147,7 +151,8 @@ class KinematicsAccumulator(ConcludedResult):
     n_types : int
         Particle types 1..n_types get a ``phi_k`` column.
     n_blocks : int
-        Blocks for standard errors, at least 2.
+        Blocks of the block error, at least 2 (the floor of ``u_se``, ``w_se``
+        while the autocorrelation estimate is not reliable).
     """
 
     def __init__(self, x_edges, z_edges, T: float, n_types: int = 1, n_blocks: int = 8):
@@ -245,12 +250,8 @@ class KinematicsAccumulator(ConcludedResult):
         if self._sums.n_frames == 0:
             raise RuntimeError("KinematicsAccumulator.conclude() called before any frame was accumulated")
         values = self._derive(self._sums.total_mean())
-        blocks = [self._derive(m) for m in self._sums.block_means(self.n_blocks)]
-        se = {}
-        for name in ("u", "w"):
-            stack = np.array([b[name] for b in blocks])
-            se[f"{name}_se"] = (stack.std(axis=0, ddof=1) / np.sqrt(len(blocks)) if len(blocks) >= 2
-                                else np.full(stack.shape[1], np.nan))
+        errors, _ = time_average_errors(self._sums, self._derive, ("u", "w"), self.n_blocks)
+        se = {f"{name}_se": errors[name] for name in ("u", "w")}
         xc = 0.5 * (self.x_edges[1:] + self.x_edges[:-1])
         zc = 0.5 * (self.z_edges[1:] + self.z_edges[:-1])
         grid = [g.ravel() for g in np.meshgrid(xc, zc, indexing="ij")]

@@ -156,7 +156,7 @@ def _summary(dev: np.ndarray, I: np.ndarray) -> dict:
 
 
 def plug_phi(a: ChannelAnalysis) -> tuple[float, float]:
-    """Mean :math:`\\phi` over the plug bins and its error: the mean of the bins' block errors
+    """Mean :math:`\\phi` over the plug bins and its error: the mean of the bins' (correlation-aware) errors
     (bins taken as fully correlated, an upper bound); NaN without a plug."""
     plug = a.zones.labels == "plug"
     phi = a.folded["phi"].to_numpy(float)[plug]
@@ -238,7 +238,7 @@ def case_checks(case: ChannelCase, errors: dict) -> list[Check]:
         zones = case.analysis.zones
         detail = (f"mean φ of the folded bins from the plug edge x = {zones.x_dense_plug:.3g} d_p (shear rate within "
                   f"2 standard errors of zero up to the centre) to the centre; error: the mean of those bins' "
-                  f"8-block errors of φ (bins taken as fully correlated, an upper bound; not autocorrelation-aware)")
+                  f"errors of φ (correlation-aware field errors; bins taken as fully correlated, an upper bound)")
         points = rheology_points(case.analysis)
         mu = b3_deviation(points, "dense")
         loose, dense = b4_deviation(points, "loose"), b4_deviation(points, "dense")

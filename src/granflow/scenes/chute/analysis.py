@@ -147,7 +147,7 @@ def profile_checks(profile: pd.DataFrame, theta_deg: float, z_base: float, margi
 
     Returns ``phi_bulk``, ``z_surface``, ``H_flow`` (:math:`z_s - z_0`), the bulk
     range, ``stress_ratio`` (mean of :math:`\\mu(z)` over bulk bins) with
-    ``stress_ratio_se`` (standard error from the bins' block errors and their
+    ``stress_ratio_se`` (standard error from the bins' (correlation-aware) errors and their
     scatter, whichever is larger), ``stress_ratio_error`` (:math:`\\mu/\\tan\\theta - 1`),
     ``weight_residual`` (:math:`\\sqrt{\\langle((\\sigma_{zz} - W)/W)^2\\rangle}` over the bulk)
     and the Bagnold fit (``bagnold_A``, ``bagnold_r2``, ``bagnold_rel_rms``, ``bagnold_H``).
@@ -170,7 +170,7 @@ def profile_checks(profile: pd.DataFrame, theta_deg: float, z_base: float, margi
     mu = stress_ratio(profile)[bulk]
     out["phi_bulk"] = float(np.mean(phi[bulk]))
     out["stress_ratio"] = float(np.nanmean(mu))
-    # error of mu from the block errors of sigma_xz and sigma_zz (first order), and the scatter between bins
+    # error of mu from the (correlation-aware) errors of sigma_xz and sigma_zz (first order), and the scatter between bins
     szz, sxz = profile["sigma_zz"].to_numpy()[bulk], profile["sigma_xz"].to_numpy()[bulk]
     se_zz, se_xz = profile["sigma_zz_se"].to_numpy()[bulk], profile["sigma_xz_se"].to_numpy()[bulk]
     se_bins = np.abs(mu) * np.sqrt((se_xz / sxz) ** 2 + (se_zz / szz) ** 2)

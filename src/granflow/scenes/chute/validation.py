@@ -113,8 +113,8 @@ def weight_deviation(case: ChuteCase) -> tuple[float, float, int]:
     """Mean over the bulk bins of :math:`(\\sigma_{zz} - W)/W`, :math:`W` the weight above (the
     analysis' ``weight_above``), its error and the number of bins.
 
-    The error is the mean of the bins' :math:`\\mathrm{se}(\\sigma_{zz})/W` (the profile's 8-block
-    errors, bins taken as fully correlated: an upper bound; not autocorrelation-aware).
+    The error is the mean of the bins' :math:`\\mathrm{se}(\\sigma_{zz})/W` (the profile's correlation-aware
+    errors, bins taken as fully correlated: an upper bound).
     """
     p, bulk = case.profile, case.bulk()
     szz, weight = p["sigma_zz"].to_numpy(float)[bulk], p["weight_above"].to_numpy(float)[bulk]
@@ -153,7 +153,7 @@ def case_checks(case: ChuteCase, errors: dict) -> list[Check]:
     ratio = case.value("stress_ratio") / tan if steady else NAN
     se, enote = se_of("stress_ratio_over_tan")
     note = (f"mean of -σ_xz/σ_zz (total stress: contact + kinetic) over the {bulk_text}: "
-            f"{case.value('stress_ratio'):.4f} against tan θ = {tan:.4f}; the analysis' own error (bins' block "
+            f"{case.value('stress_ratio'):.4f} against tan θ = {tan:.4f}; the analysis' own error (bins' "
             f"errors or their scatter, the larger) {case.value('stress_ratio_se') / tan:.2g}; {enote}"
             if steady else why)
     checks.append(Check("bulk -σ_xz/σ_zz / tan θ", "1 (exact in steady uniform flow)",
@@ -163,8 +163,8 @@ def case_checks(case: ChuteCase, errors: dict) -> list[Check]:
         dev, dev_se, n = weight_deviation(case)
         note = (f"mean over the {bulk_text} of (σ_zz - W)/W, W = g cos θ ∫_z ρ dz' (the analysis' weight_above); "
                 f"rms of the same over the bulk (the analysis' weight_residual) {case.value('weight_residual'):.2%}; "
-                f"error: the mean of the bins' 8-block errors of σ_zz over W (bins taken as fully correlated, "
-                f"an upper bound; not autocorrelation-aware)")
+                f"error: the mean of the bins' correlation-aware errors of σ_zz over W (bins taken as "
+                f"fully correlated, an upper bound)")
     else:
         dev, dev_se, note = NAN, NAN, why
     checks.append(Check("σ_zz / weight above - 1 (bulk mean)", "0 (exact in steady uniform flow)",

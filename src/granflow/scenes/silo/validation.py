@@ -140,7 +140,7 @@ def velocity_exponent_check(cases: list[SiloCase]) -> Check:
     ok = [c for c in cases if c.steady]
     fit = sl.scaling_exponent([c.get("R") for c in ok], [c.get("v_c") for c in ok], [c.get("v_c_se") for c in ok])
     note = (f"weighted fit of ln v_c against ln R over {fit['n']} orifices (v_c at the orifice centre, w = 2 r_b; "
-            "errors: coarse-graining block errors, scaled by χ²/ν when > 1); a Beverloo-like "
+            "errors: coarse-graining errors (correlation-aware), scaled by χ²/ν when > 1); a Beverloo-like "
             "v_c ∝ √(R − k'd) would show a larger apparent exponent at small R/d")
     if fit["n"] < 2:
         note = f"fewer than 2 steady orifices ({fit['n']}): no exponent"
@@ -225,7 +225,7 @@ def bulk_check(case: SiloCase) -> Check:
     rec = case.record
     phi, se = sl.bulk_volume_fraction(case.fields, rec["fill_height"], rec["R_c"], rec["r_b"])
     note = ("mean φ over a slab of ±4 r_b at half the fill height, r < R_c − 3 r_b, over the steady window "
-            "(the paper: a slab touching the top surface); error: the nodes' block errors taken as fully "
+            "(the paper: a slab touching the top surface); error: the nodes' (correlation-aware) errors taken as fully "
             "correlated (an upper bound)")
     return Check(q, paper, source, phi, se, case=case.name, paper_range=PHI_BULK, note=note)
 
@@ -240,7 +240,7 @@ def partial_check(case: SiloCase) -> Check:
     note = (f"species {r['small']} over {r['large']} at the axis node z = {r['z_node']:.3g} m nearest h_c, main "
             "fields w = 2 r_b (the paper's Figs. 11-12: w = r_b/2); p^k_largest/p^k_smallest = "
             f"{r['pk_large_over_small']:.3g} (the paper, Fig. 11: larger for bigger particles); errors: "
-            "coarse-graining block errors")
+            "coarse-graining errors (correlation-aware)")
     if r["small"] is None or r["small"] == r["large"]:
         note = "fewer than two species with partial kinetic pressures and volume fractions"
     return Check(q, paper, source, r["ratio"], r["ratio_se"], case=case.name, paper_range=(1.0, math.inf), note=note)

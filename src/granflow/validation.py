@@ -263,6 +263,33 @@ def readme_table(summaries: list[dict]) -> str:
 
 
 # ------------------------------------------------------------------ helpers of the scenes' checks
+def read_case(path: Path) -> tuple[dict, dict, dict, str]:
+    """``(params.json, run/status.json, analysis/scalars.json, why_not)`` of a finished case.
+
+    ``why_not`` is empty for a case averaged in a steady state, else why it has no numbers to compare.
+    """
+    path = Path(path)
+    record = json.loads((path / "params.json").read_text())
+    status = json.loads((path / "run" / "status.json").read_text())
+    scalars_path = path / "analysis" / "scalars.json"
+    scalars = json.loads(scalars_path.read_text()) if scalars_path.exists() else {}
+    why_not = ""
+    if status.get("status") != "steady":
+        why_not = f"not measured: {status.get('status')}: {status.get('reason')}"
+        if status.get("dumps"):
+            why_not += " (the frames it averaged anyway are in table.csv, not compared: no steady average)"
+    elif not status.get("dumps"):
+        why_not = "not measured: steady but no averaged frames"
+    elif not scalars:
+        why_not = "not measured: no analysis/scalars.json"
+    return record, status, scalars, why_not
+
+
+def concat_profiles(named_parts) -> dict[str, pd.DataFrame]:
+    """``{name: one table}`` from ``(name, [per-case tables])`` pairs, leaving out names without tables."""
+    return {name: pd.concat(parts, ignore_index=True) for name, parts in named_parts if parts}
+
+
 def time_average_errors(scene_name: str, case_dir: Path, record: dict, why_not: str = "",
                         n_blocks: int = 4) -> dict:
     """Headline values of a case with their time-average errors over the rung's averaging time.

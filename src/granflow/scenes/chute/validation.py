@@ -20,7 +20,6 @@ Units: :math:`d`, :math:`m`, :math:`\\sqrt{d/g}`.
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from granflow.registry import finite
-from granflow.validation import Check, ValidationResult, error_note, sci, time_average_errors
+from granflow.validation import Check, ValidationResult, error_note, read_case, sci, time_average_errors
 
 from .analysis import bulk_mask
 
@@ -80,19 +79,7 @@ class ChuteCase:
 def load_case(name: str, path: Path) -> ChuteCase:
     """Read a case's record, status, scalars and profile; say why it cannot be compared, if so."""
     path = Path(path)
-    record = json.loads((path / "params.json").read_text())
-    status = json.loads((path / "run" / "status.json").read_text())
-    scalars_path = path / "analysis" / "scalars.json"
-    scalars = json.loads(scalars_path.read_text()) if scalars_path.exists() else {}
-    why_not = ""
-    if status.get("status") != "steady":
-        why_not = f"not measured: {status.get('status')}: {status.get('reason')}"
-        if status.get("dumps"):
-            why_not += " (the frames it averaged anyway are in table.csv, not compared: no steady average)"
-    elif not status.get("dumps"):
-        why_not = "not measured: steady but no averaged frames"
-    elif not scalars:
-        why_not = "not measured: no analysis/scalars.json"
+    record, status, scalars, why_not = read_case(path)
     profile = None
     profile_path = path / "analysis" / "profile.csv"
     if not why_not and profile_path.exists():

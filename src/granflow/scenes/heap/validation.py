@@ -28,7 +28,7 @@ import pandas as pd
 
 from granflow.plotting import _pm
 from granflow.registry import finite
-from granflow.validation import Check, ValidationResult
+from granflow.validation import Check, ValidationResult, concat_profiles
 from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.heap.analysis as hp
@@ -316,12 +316,8 @@ def profiles(cases: list[HeapCase]) -> dict[str, pd.DataFrame]:
                                          "in_fit": (x > lo) & (x < hi)}))
         if not c.tables["deposit"].empty:
             deposit.append(c.tables["deposit"].assign(**head)[["case", "x_lab", "c_s", "n"]])
-    out = {}
-    for name, parts in (("streamwise", streamwise), ("collapse", collapsed), ("surface_at_window_start", surface),
-                        ("deposit", deposit)):
-        if parts:
-            out[name] = pd.concat(parts, ignore_index=True)
-    return out
+    return concat_profiles((("streamwise", streamwise), ("collapse", collapsed), ("surface_at_window_start", surface),
+                        ("deposit", deposit)))
 
 
 # --------------------------------------------------------------------------- set-up

@@ -31,7 +31,7 @@ import pandas as pd
 
 from granflow.plotting import _pm
 from granflow.registry import finite
-from granflow.validation import Check, ValidationResult
+from granflow.validation import Check, ValidationResult, concat_profiles
 from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.silo.analysis as sl
@@ -291,12 +291,8 @@ def profiles(cases: list[SiloCase]) -> dict[str, pd.DataFrame]:
         if not c.contact.empty:
             pc = sl.axis_profile(c.contact, "pc")
             contact.append(pd.DataFrame({**head, "z_over_R": pc["z"] / R, "pc": pc["value"], "pc_se": pc["value_se"]}))
-    out = {"sweep": pd.DataFrame(sweep)}
-    for name, parts in (("orifice_profiles", orifice), ("kinetic_axis", kinetic), ("partial_kinetic_axis", partial),
-                        ("contact_axis", contact)):
-        if parts:
-            out[name] = pd.concat(parts, ignore_index=True)
-    return out
+    return {"sweep": pd.DataFrame(sweep), **concat_profiles((("orifice_profiles", orifice), ("kinetic_axis", kinetic), ("partial_kinetic_axis", partial),
+                        ("contact_axis", contact)))}
 
 
 # --------------------------------------------------------------------------- set-up

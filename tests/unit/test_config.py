@@ -53,7 +53,7 @@ def test_scene_refusals(capsys, root, override, needles):
 
 def test_unknown_rung_refused_by_render(capsys, tmp_path):
     err = refuse(capsys, ["render", "channel", "--rung", "ultra", "--out", str(tmp_path)])
-    assert "'ultra'" in err and "smoke, demo, study, paper" in err
+    assert "'ultra'" in err and "smoke, demo, study, validation, paper" in err
     assert not any(tmp_path.iterdir()), "a refused render must write nothing"
 
 

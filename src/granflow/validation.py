@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from . import provenance
+from .registry import finite
 
 #: a difference within this many standard errors is called "within error"
 SIGMAS = 2.0
@@ -328,18 +329,10 @@ def headline_errors(scene_name: str, case_dir: Path, record: dict, status: dict,
         m = measure_with_errors(scene_name, case_dir, record, record["rung_knobs"]["t_average"], n_blocks=4)
     except (OSError, ValueError, KeyError, IndexError, np.linalg.LinAlgError) as exc:
         return dict(fallback), f"measure_with_errors failed ({exc}): the analysis's own errors"
-    errors = {k: _finite(m[k]["se"]) if k in m else fallback[k] for k in fallback}
+    errors = {k: finite(m[k]["se"]) if k in m else fallback[k] for k in fallback}
     first = m.get(next(iter(fallback)), {})
     return errors, (f"error: {first.get('se_method', 'block')} over "
                     f"{first.get('n_series', first.get('n_blocks'))} sub-windows")
-
-
-def _finite(value) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        return float("nan")
-    return value if math.isfinite(value) else float("nan")
 
 
 def error_note(entry: dict | None, why: str = "") -> str:

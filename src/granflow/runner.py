@@ -484,6 +484,7 @@ class CaseRunner:
             "nprocs": self.nprocs,
             "host": socket.gethostname(),
             "launcher": shlex.join(self.launch),
+            "slurm": slurm_allocation(),
             # the code that finished the run (a resumed run may have started under an earlier one)
             "granflow_commit": git["commit"],
             "granflow_dirty": git["dirty"],
@@ -493,6 +494,16 @@ class CaseRunner:
         log(f"status {status}: {reason}; largest overlap {max_overlap:.3g} d_min, "
             f"{n_dangerous} dangerous builds")
         return out
+
+
+def slurm_allocation() -> dict | None:
+    """The SLURM allocation this process runs in (job id, CPUs on this node), or None outside SLURM."""
+    job = os.environ.get("SLURM_JOB_ID")
+    if not job:
+        return None
+    cpus = os.environ.get("SLURM_CPUS_ON_NODE")
+    return {"job_id": job, "cpus_on_node": int(cpus) if cpus and cpus.isdigit() else None,
+            "partition": os.environ.get("SLURM_JOB_PARTITION")}
 
 
 def run_case(case_dir: str | Path, nprocs: int = 1, launcher: str | None = None) -> dict:

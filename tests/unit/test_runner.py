@@ -146,6 +146,10 @@ def test_profile_launcher_runs_lammps_and_is_recorded(tmp_path, monkeypatch):
     (tmp_path / "params.json").write_text(json.dumps({"protocol": {}, "guards": {"report_overlap": 0.01}}))
     (tmp_path / "run").mkdir()
     monkeypatch.setenv("OMP_NUM_THREADS", "3")  # as Snakemake sets it for a 3-thread job
+    # inside an sbatch job of 3 CPUs, as SLURM's environment says
+    monkeypatch.setenv("SLURM_JOB_ID", "41")
+    monkeypatch.setenv("SLURM_CPUS_ON_NODE", "3")
+    monkeypatch.setenv("SLURM_JOB_PARTITION", "debug")
     runner = CaseRunner(tmp_path, 3, tools=Tools.default(launcher=f"{srun} --mpi=pmi2"))
     runner._lammps("init.lmp", "init", {"segment": 0})
     seen = json.loads(record.read_text())
@@ -154,6 +158,7 @@ def test_profile_launcher_runs_lammps_and_is_recorded(tmp_path, monkeypatch):
     status = runner._conclude(None, 0, 0, None)
     assert status["launcher"] == f"{srun} --mpi=pmi2 -n 3" and status["nprocs"] == 3
     assert status["host"] == socket.gethostname()
+    assert status["slurm"] == {"job_id": "41", "cpus_on_node": 3, "partition": "debug"}
     assert json.loads((tmp_path / "run" / "status.json").read_text())["launcher"] == status["launcher"]
     # and the code that ran: this checkout's commit
     from granflow.provenance import git_state
@@ -170,3 +175,11 @@ def test_granflow_mpirun_still_chooses_the_default_launcher(tmp_path, monkeypatc
     assert tools.launch(2) == [str(mpirun), "-np", "2"]
     # a profile's launcher wins over it
     assert Tools.default(launcher="srun --mpi=pmi2").launch(2)[-3:] == ["--mpi=pmi2", "-n", "2"]
+
+
+def test_no_slurm_allocation_outside_slurm(monkeypatch):
+    from granflow.runner import slurm_allocation
+
+    for var in ("SLURM_JOB_ID", "SLURM_CPUS_ON_NODE", "SLURM_JOB_PARTITION"):
+        monkeypatch.delenv(var, raising=False)
+    assert slurm_allocation() is None

@@ -19,6 +19,9 @@ include: "workflows/rules/provenance.smk"
 include: "workflows/rules/validation.smk"
 
 
+check_command_line_targets()
+
+
 rule all:
     """Every enabled scene's table, figures and provenance (scenes are found through granflow's registry),
     and the committed validation record's tables for the report."""

@@ -30,16 +30,25 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shlex
 import sys
+import traceback
 from pathlib import Path
 
 from postproc import cg_cli
 
 from . import registry
 from .campaign import load_campaign
-from .config import PROJECT_ROOT, ConfigError, load_scene, load_yaml
+from .config import PROJECT_ROOT, ConfigError, check_size, load_scene, load_yaml
 from .preflight import PreflightError
+
+#: exit codes: a user's mistake (bad input, refused before anything runs) and a run that failed
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class UsageError(ConfigError):
+    """A command line that cannot be carried out as given (exit 2, no traceback)."""
 
 
 def _add_set(p: argparse.ArgumentParser) -> None:
@@ -49,6 +58,29 @@ def _add_set(p: argparse.ArgumentParser) -> None:
                         "--set scenes.channel.sweep.W=[20,30]")
 
 
+def _add_limits(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--max-particles", type=int, default=None, metavar="N",
+                   help="refuse a case estimated above N particles (default: the campaign's "
+                        "max_particles, else 2,000,000)")
+    p.add_argument("--memory-mb", type=float, default=None, metavar="MB",
+                   help="refuse a case estimated above MB of memory (default: the campaign's "
+                        "memory_mb, else this machine's memory)")
+
+
+def _limit_overrides(args) -> list[str]:
+    """``--max-particles``/``--memory-mb`` as campaign overrides (validated with the file)."""
+    out = []
+    if getattr(args, "max_particles", None) is not None:
+        out.append(f"max_particles={args.max_particles}")
+    if getattr(args, "memory_mb", None) is not None:
+        out.append(f"memory_mb={args.memory_mb!r}")
+    return out
+
+
+def _limits(args) -> dict:
+    return {"max_particles": args.max_particles, "memory_mb": args.memory_mb}
+
+
 def cmd_check_config(args) -> int:
     path = Path(args.file)
     data = load_yaml(path)
@@ -56,17 +88,54 @@ def cmd_check_config(args) -> int:
         load_scene(path, args.overrides)
         print(f"{path}: valid {data['scene']} scene file")
     else:
-        cfg = load_campaign(path, args.overrides, root=Path.cwd())
+        cfg = load_campaign(path, [*args.overrides, *_limit_overrides(args)], root=Path.cwd())
         scenes = [n for n, s in cfg["scenes"].items() if s.get("enabled", True)]
         print(f"{path}: valid campaign, rung {cfg['rung']}, scenes: {', '.join(scenes) or 'none'}")
     return 0
 
 
+def _check_out(out: str, record: dict, force: bool) -> Path:
+    """Refuse an output directory that would lose a user's files: ``''``, a file, a non-empty
+    directory granflow did not render into, or one holding a run of other parameters (unless
+    ``--force``); and one that cannot be written."""
+    if not out.strip():
+        raise UsageError("--out '' is not allowed: allowed a directory path (it is created if missing)")
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"--out {out} is a file: allowed a directory (new, empty, or rendered by granflow)")
+    if path.is_dir() and any(path.iterdir()) and not force:
+        params = path / "params.json"
+        try:
+            old = json.loads(params.read_text())
+            ours = isinstance(old, dict) and {"scene", "rung", "parameters"} <= set(old)
+        except (OSError, ValueError):
+            old, ours = None, False
+        if not ours:
+            raise UsageError(f"--out {out} is not empty and was not rendered by granflow (no params.json of a "
+                             f"case): allowed a new or empty directory; pass --force to write into it anyway")
+        if (path / "run").exists() and json.loads(json.dumps(record, sort_keys=True)) != old:
+            raise UsageError(f"--out {out} holds a run of other parameters (run/ and a different params.json): "
+                             f"rendering would make it resume with new decks; allowed another directory, "
+                             f"or --force")
+    target = path if path.is_dir() else next((q for q in path.parents if q.exists()), Path("."))
+    if not os.access(target, os.W_OK | os.X_OK):
+        raise UsageError(f"--out {out}: {target} is not writable: allowed a directory you can write to")
+    return path
+
+
 def cmd_render(args) -> int:
-    from .deck import STAGES, render_case
+    from .deck import STAGES, render_case, scene_parameters
 
     scene_file = Path(args.config or PROJECT_ROOT / "config" / "scenes" / f"{args.scene}.yaml")
     scene = load_scene(scene_file, args.overrides)
+    if scene["scene"] != args.scene:
+        raise UsageError(f"--config {scene_file} describes the {scene['scene']} scene: allowed a {args.scene} "
+                         f"scene file (or render {scene['scene']})")
+    from .config import check_rung
+    check_rung(scene, args.rung)
+    check_size(args.scene, scene, args.rung, None, _limits(args), str(scene_file), f"{args.scene} at rung {args.rung}")
+    _, context = scene_parameters(scene, args.rung)
+    _check_out(args.out, context["record"], args.force)
     record = render_case(scene, args.rung, args.out)
     prm = record["parameters"]
     written = {p.stem for p in Path(args.out).glob("*.lmp")}
@@ -85,12 +154,48 @@ def cmd_scenes(args) -> int:
     return 0
 
 
-def cmd_run(args) -> int:
-    from .runner import run_case
+def _check_case_dir(case_dir: str) -> Path:
+    """A rendered case: a directory with a granflow params.json and its decks, writable."""
+    path = Path(case_dir)
+    if not path.is_dir():
+        raise UsageError(f"case directory {case_dir} does not exist: allowed a directory written by "
+                         f"`granflow render` (or a case under results/)")
+    params = path / "params.json"
+    if not params.is_file():
+        raise UsageError(f"{case_dir} is not a rendered case: it has no params.json; write one with "
+                         f"`granflow render SCENE --rung RUNG --out {case_dir}`")
+    try:
+        record = json.loads(params.read_text())
+    except ValueError as exc:
+        raise UsageError(f"{params} is not valid JSON ({exc}): render the case again") from None
+    if not isinstance(record, dict) or not {"scene", "rung", "parameters"} <= set(record):
+        raise UsageError(f"{params} is not a granflow parameter record (needs scene, rung, parameters): "
+                         f"render the case again")
+    if record["scene"] not in registry.names():
+        raise UsageError(f"{params}: scene = {record['scene']!r} is not allowed: allowed one of "
+                         f"{', '.join(registry.names())}")
+    if not (path / "init.lmp").is_file():
+        raise UsageError(f"{case_dir} lacks its first deck init.lmp: render the case again")
+    if not os.access(path, os.W_OK | os.X_OK) or ((path / "run").exists() and not os.access(path / "run", os.W_OK)):
+        raise UsageError(f"{case_dir} is not writable: the run writes its restarts and logs under "
+                         f"{case_dir}/run; allowed a directory you can write to")
+    return path
 
-    status = run_case(args.case_dir, args.np)
+
+def cmd_run(args) -> int:
+    from .runner import RunError, run_case
+
+    if args.np < 1:
+        raise UsageError(f"--np {args.np} is not allowed: allowed 1 <= np")
+    path = _check_case_dir(args.case_dir)
+    try:
+        status = run_case(path, args.np)
+    except RunError as exc:
+        print(f"granflow run: failed: {exc}\n  logs: {path / 'run' / 'logs'}; a rerun resumes after the last "
+              f"complete segment", file=sys.stderr)
+        return EXIT_FAILED
     print(json.dumps(status, indent=2))
-    return 0
+    return EXIT_OK
 
 
 def cmd_plan(args) -> int:
@@ -98,7 +203,7 @@ def cmd_plan(args) -> int:
 
     path = Path(args.config or PROJECT_ROOT / "config" / "config.yaml")
     root = path.resolve().parent.parent
-    overrides = ([f"rung={args.rung}"] if args.rung else []) + list(args.overrides)
+    overrides = ([f"rung={args.rung}"] if args.rung else []) + list(args.overrides) + _limit_overrides(args)
     cfg = load_campaign(path, overrides, root=root)
     results = Path(cfg.get("results_dir", "results"))
     if not results.is_absolute():
@@ -120,16 +225,18 @@ def build_parser() -> argparse.ArgumentParser:
                     "The whole campaign runs with `snakemake --cores 2`; these subcommands check, "
                     "render or run single cases.",
         epilog="Config errors name the key, the value and the allowed range; nothing runs until the "
-               "config is valid.",
+               "config is valid. Exit codes: 0 done, 2 bad input (nothing ran), 1 failed run.",
     )
+    ap.add_argument("--debug", action="store_true", help="show Python tracebacks of errors")
     sub = ap.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("check-config", help="validate a campaign or scene YAML file",
                        description="Validate FILE (config/config.yaml or config/scenes/<scene>.yaml) "
-                                   "against its JSON schema and cross-field rules; exit 1 with a message "
+                                   "against its JSON schema and cross-field rules; exit 2 with a message "
                                    "naming key, value and allowed range if it is invalid.")
     p.add_argument("file", help="campaign or scene YAML file")
     _add_set(p)
+    _add_limits(p)
     p.set_defaults(func=cmd_check_config)
 
     p = sub.add_parser("render", help="write the decks and parameter record of one case",
@@ -137,10 +244,14 @@ def build_parser() -> argparse.ArgumentParser:
                                    "one case of SCENE at RUNG into DIR, without running LAMMPS. The time "
                                    "step is checked against the stiffest contact first.")
     p.add_argument("scene", choices=registry.names(), help="scene name (see `granflow scenes`)")
-    p.add_argument("--rung", required=True, help="fidelity rung: smoke, demo, study or paper")
+    p.add_argument("--rung", required=True, help="fidelity rung: smoke, demo, study, paper or validation")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--config", help="scene YAML (default config/scenes/SCENE.yaml)")
+    p.add_argument("--force", action="store_true",
+                   help="write into a non-empty directory granflow did not render (files of the same "
+                        "names are replaced)")
     _add_set(p)
+    _add_limits(p)
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("scenes", help="list the registered scenes, one line each",
@@ -178,6 +289,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="flag simulate jobs longer than this (default 24 h, a common partition limit)")
     p.add_argument("--json", action="store_true", help="print the plan as JSON")
     _add_set(p)
+    _add_limits(p)
     p.set_defaults(func=cmd_plan)
 
     p = sub.add_parser("cg", help="coarse-grain any LAMMPS dump into continuum fields (CSV, JSON, VTK)",
@@ -189,14 +301,33 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one subcommand. Exit codes: 0 done, 2 bad input (refused before anything ran, no
+    traceback), 1 a run or step that failed; ``--debug`` shows the traceback of any error."""
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
     args._argv = argv
     try:
         return args.func(args)
     except (ConfigError, PreflightError) as exc:
+        if args.debug:
+            traceback.print_exc()
         print(f"granflow: refused: {exc}", file=sys.stderr)
-        return 1
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("granflow: interrupted; a rerun resumes after the last complete segment", file=sys.stderr)
+        return 130
+    except OSError as exc:
+        if args.debug:
+            traceback.print_exc()
+        where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+        print(f"granflow: refused: {exc.strerror or exc}{where}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except Exception as exc:  # a bug, not the user's mistake: say so, traceback only with --debug
+        if args.debug:
+            raise
+        print(f"granflow: failed: {type(exc).__name__}: {exc}\n  (this is granflow's fault, not your input; "
+              f"rerun with --debug for the traceback and report it)", file=sys.stderr)
+        return EXIT_FAILED
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ import math
 from pathlib import Path
 
 from . import registry
-from .config import ConfigError, load_scene, validate_scene
+from .config import ConfigError, check_size, load_scene, validate_scene
 
 KNOBS = ("dt_fraction", "stiffness", "size", "t_average", "bin_width")
 POST_KNOBS = ("t_average", "bin_width")
@@ -210,6 +210,8 @@ def cost_studies(data: dict, root: Path, source: str) -> dict:
         scene = sc.get("scene") or load_scene(scene_path if scene_path.is_absolute() else root / scene_path)
         cs = CostStudy(name, scene, study, source=f"{source}: cost")
         for run, variant in cs.scenes.items():
+            check_size(name, variant, cs.rung, None, data, source,
+                       f"cost.scenes.{name} run {run!r} (rung {cs.rung})")
             try:
                 registry.get(name).parameters(variant, cs.rung)  # preflight: time step, feasibility
             except (PreflightError, ValueError) as exc:

@@ -197,6 +197,12 @@ class Scene:
         """``(params, context)``: the deck numbers and the template context (with ``record``)."""
         raise NotImplementedError(f"scene {self.name!r} does not define parameters()")
 
+    def particle_count(self, scene: dict, rung: str, case: dict | None = None) -> int:
+        """Most particles the case holds, estimated *before* anything is built (the size check
+        refuses an oversize case with it). Default: :meth:`workload` of the parameter record;
+        a scene whose :meth:`parameters` allocates per-particle arrays overrides this with a formula."""
+        return int(self.workload(self.parameters(scene, rung, case)[1]["record"]).particles)
+
     def describe(self, record: dict) -> str:
         """One line for ``granflow render``: the case's size and main numbers."""
         return f"{record['parameters'].get('n_particles', '?')} particles"

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import asdict, dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -223,6 +224,27 @@ def _minutes(wall_s: float, segments: int) -> int:
     return max(RUNTIME_FLOOR_MIN, math.ceil((RUNTIME_MARGIN * wall_s + segments * SEGMENT_OVERHEAD_S) / 60.0))
 
 
+def memory_mb(particles: int, ranks: int | None = None, calibration: Calibration | None = None) -> int:
+    """Memory of a simulate job with ``particles`` on ``ranks`` (default :func:`suggested_ranks`), MB."""
+    cal = calibration or Calibration()
+    ranks = int(ranks) if ranks else suggested_ranks(particles)
+    return int(math.ceil(MEMORY_MARGIN * (cal.runner_mb + ranks * LAMMPS_RANK_MB
+                                          + cal.kb_per_particle * particles / 1024)))
+
+
+def machine_memory_mb() -> int:
+    """Physical memory of this machine, MB (the default memory budget of a case)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**20)
+    except (ValueError, OSError, AttributeError):
+        return 0
+
+
+#: most particles of one case unless the campaign's ``limits.max_particles`` or ``--max-particles``
+#: says otherwise: ~7x the largest paper-rung case (silo, 278k), ~4.5 GB by the memory model above
+DEFAULT_MAX_PARTICLES = 2_000_000
+
+
 def estimate(workload: Workload, ranks: int | None = None, calibration: Calibration | None = None,
              max_ranks: int | None = None) -> Estimate:
     """Price a workload on ``ranks`` MPI ranks (default :func:`suggested_ranks`)."""
@@ -233,10 +255,10 @@ def estimate(workload: Workload, ranks: int | None = None, calibration: Calibrat
     speed = ranks * parallel_efficiency(ranks)
     wall_s = cpu_s / speed
     segment_wall_s = workload.longest_segment_atom_steps / rate.value / speed
-    mem = MEMORY_MARGIN * (cal.runner_mb + ranks * LAMMPS_RANK_MB + cal.kb_per_particle * workload.particles / 1024)
+    mem = memory_mb(workload.particles, ranks, cal)
     return Estimate(
         particles=workload.particles, atom_steps=workload.atom_steps, cpu_hours=cpu_s / 3600, ranks=ranks,
-        wall_hours=wall_s / 3600, core_hours=ranks * wall_s / 3600, mem_mb=int(math.ceil(mem)),
+        wall_hours=wall_s / 3600, core_hours=ranks * wall_s / 3600, mem_mb=mem,
         runtime_min=_minutes(wall_s, workload.segments), segment_runtime_min=_minutes(segment_wall_s, 1),
         segments=workload.segments, rate=rate.value, rate_source=rate.source, memory_source=cal.memory_source)
 

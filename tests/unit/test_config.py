@@ -10,7 +10,7 @@ from granflow.config import ConfigError, apply_overrides, load_scene
 
 
 def refuse(capsys, argv):
-    assert main(argv) == 1
+    assert main(argv) == 2  # bad input: refused, nothing ran
     return capsys.readouterr().err
 
 

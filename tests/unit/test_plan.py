@@ -260,5 +260,5 @@ def test_plan_sees_done_cases(capsys, root, tmp_path):
 
 def test_plan_refuses_an_infeasible_case(capsys, tmp_path):
     """Validated as the Snakefile does: the default heap feed rate does not fit the smoke feed zone."""
-    assert main(["plan", "--rung", "smoke", "--set", f"results_dir={tmp_path}"]) == 1
+    assert main(["plan", "--rung", "smoke", "--set", f"results_dir={tmp_path}"]) == 2
     assert "feed_rate" in capsys.readouterr().err

@@ -8,14 +8,27 @@ sys.path.insert(0, str(Path(workflow.basedir) / "src"))
 
 from granflow import registry  # noqa: E402
 from granflow.campaign import validate_campaign  # noqa: E402
-from granflow.config import ConfigError  # noqa: E402
+from granflow.config import ConfigError, load_yaml  # noqa: E402
 from granflow.resources import simulate_resources  # noqa: E402
+from granflow.targets import check_targets, cli_targets  # noqa: E402
+
+def refuse(what, exc):
+    """A user's mistake: the message naming key, value and allowed range on stderr, exit 2, no
+    traceback (as `granflow` does)."""
+    print(f"{what}, nothing was run:\n{exc}", file=sys.stderr)
+    sys.exit(2)
+
 
 try:
+    # each campaign file read again strictly: Snakemake's YAML 1.1 reader takes 0123 for 83 and
+    # `on` for true without a word, and evaluates a __use_yte__ template (refused here, too late
+    # for what the template ran: `granflow check-config` refuses it before anything runs)
+    for _file in workflow.configfiles:
+        load_yaml(_file)
     # the config Snakemake actually uses: the file plus any --configfile/--config overrides
     CAMPAIGN = validate_campaign(dict(config), root=Path(workflow.basedir), source="config")
 except ConfigError as exc:
-    raise WorkflowError(f"invalid configuration, nothing was run:\n{exc}")
+    refuse("invalid configuration", exc)
 
 RESULTS = CAMPAIGN.get("results_dir", "results")
 RUNG = CAMPAIGN["rung"]
@@ -78,3 +91,17 @@ def simulate_runtime(wildcards, input, threads, attempt):
     """Minutes for every segment of the case in one job (a killed job resumes after its last
     complete segment when resubmitted: the SLURM profile retries)."""
     return simulate_resources(input.params)["runtime"]
+
+
+def check_command_line_targets():
+    """Files named on the snakemake command line get the campaign's validation: a scene, rung,
+    case or cost-study run that the campaign does not hold is refused, naming the allowed ones
+    (granflow.targets). Called by the Snakefile once every rule file is read."""
+    if Path(sys.argv[0]).name != "snakemake" and not sys.argv[0].endswith("snakemake/__main__.py"):
+        return
+    cost = {name: (cs.runs(), cs.points()) for name, cs in CAMPAIGN.get("cost_studies", {}).items()}
+    try:
+        check_targets(cli_targets(sys.argv[1:]), RESULTS, RUNG, {name: scene_cases(name) for name in SCENES},
+                      registry.names(), cost)
+    except ConfigError as exc:
+        refuse("invalid target", exc)

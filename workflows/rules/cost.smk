@@ -14,8 +14,9 @@ COST_POINT = COST + "/{scene}/points/{point}"
 
 wildcard_constraints:
     scene="|".join(registry.names()),
-    run=r"base|[a-z_]+~[0-9.e+-]+",
-    point=r"base|[a-z_]+~[0-9.e+-]+",
+    # exactly the study's runs and points (granflow.targets refuses others on the command line by name)
+    run="|".join(sorted({re.escape(r) for cs in COST_STUDIES.values() for r in cs.runs()})) or "no-run",
+    point="|".join(sorted({re.escape(p) for cs in COST_STUDIES.values() for p in cs.points()})) or "no-point",
 
 
 def cost_targets():

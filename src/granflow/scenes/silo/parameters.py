@@ -93,6 +93,17 @@ def beverloo_estimate(scene: dict, R: float) -> float:
     return proto["beverloo_C"] * rho_b * math.sqrt(proto["gravity"]) * gap**2.5
 
 
+def gas_count(scene: dict, rung: dict) -> int:
+    """Particles of the gas: the multiple of the species count nearest to
+    :math:`\\phi_{bed}\\pi R_c^2 H / \\langle V \\rangle` (a formula: nothing is built)."""
+    sp = species(scene)
+    r_b = scene["particles"]["r_b"]
+    R_c, H = rung["R_c"] * r_b, rung["fill_height"] * r_b
+    v_mean = float(np.mean([s["volume"] for s in sp]))
+    n_sp = len(sp)
+    return n_sp * max(1, round(scene["protocol"]["phi_bed_estimate"] * math.pi * R_c**2 * H / v_mean / n_sp))
+
+
 def gas_lattice(scene: dict, rung: dict, seed: int) -> dict:
     """Sites of the fcc gas in the cylinder and the species of each (equal numbers, random order).
 
@@ -103,10 +114,9 @@ def gas_lattice(scene: dict, rung: dict, seed: int) -> dict:
     """
     sp = species(scene)
     r_b = scene["particles"]["r_b"]
-    R_c, H = rung["R_c"] * r_b, rung["fill_height"] * r_b
-    v_mean = float(np.mean([s["volume"] for s in sp]))
+    R_c = rung["R_c"] * r_b
     n_sp = len(sp)
-    n = n_sp * max(1, round(scene["protocol"]["phi_bed_estimate"] * math.pi * R_c**2 * H / v_mean / n_sp))
+    n = gas_count(scene, rung)
     a = scene["protocol"]["gas_spacing"] * 2 * r_b * math.sqrt(2.0)  # fcc cube edge
     r_in = R_c - 1.02 * r_b
     if r_in < 0.75 * a:

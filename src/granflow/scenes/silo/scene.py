@@ -12,7 +12,7 @@ import granflow.scenes.silo.figures as figures
 from granflow.config import require
 from granflow.registry import FigureSpec, Knob, Scene, SweepAxis
 
-from .parameters import discharge_verdict, silo_parameters
+from .parameters import discharge_verdict, gas_count, rim_ring, silo_parameters, species
 
 #: analysis tables of every case (plus kinetic_w<w> for each kernel width of cg.w_scan)
 TABLES = ("flow", "fields", "contact")
@@ -56,6 +56,12 @@ class SiloScene(Scene):
     # -- decks and runs --------------------------------------------------------------
     def parameters(self, scene: dict, rung: str, case: dict | None = None):
         return silo_parameters(scene, rung, case)
+
+    def particle_count(self, scene: dict, rung: str, case: dict | None = None) -> int:
+        """The gas (a formula: :func:`gas_count`, the lattice is not built) and the frozen rim ring."""
+        case = dict(scene["case"], **(case or {}))
+        rim = rim_ring(case["R"] * scene["particles"]["r_b"], species(scene)[0]["radius"])
+        return gas_count(scene, scene["rungs"][rung]) + rim["n"]
 
     def describe(self, record: dict) -> str:
         return f"R = {record['R_over_rb']:g} r_b, R_c = {record['R_c']:g} m, {record['n_particles']} particles"

@@ -73,7 +73,8 @@ def _check_unambiguous(node, path: list, source: str, key: bool = False) -> None
         if pattern.match(node.value):
             read = yaml.load(node.value, Loader=yaml.SafeLoader)
             where = f" of {_dotted(path)}" if path else ""
-            what = f"the key {node.value}{where}" if key else f"{_dotted(path)} = {node.value}"
+            what = (f"the key {node.value}{where}" if key
+                    else f"{_dotted(path)} = {node.value}" if path else node.value)
             raise ConfigError(
                 f"{source}: {what} (line {node.start_mark.line + 1}) is ambiguous YAML: "
                 f"YAML 1.1 (PyYAML, Snakemake) reads it as {read!r}, YAML 1.2 as {_yaml12(node.value)!r}; "
@@ -153,7 +154,7 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     if not parts:
         raise ConfigError(f"--set {text!r}: empty key")
     try:
-        value = yaml_load(raw)
+        value = yaml_load(raw, f"--set {key.strip()}")
     except yaml.YAMLError:
         value = raw
     return parts, value

@@ -54,6 +54,10 @@ _AMBIGUOUS = {
 }
 
 
+#: longest number literal read (Python refuses to convert integers of more than 4300 digits)
+MAX_NUMBER_CHARS = 64
+
+
 def _yaml12(value: str):
     """What YAML 1.2's core schema reads from one of the :data:`_AMBIGUOUS` forms."""
     return int(value, 10) if re.fullmatch(r"[-+]?0[0-9]+", value) else value
@@ -68,6 +72,11 @@ def _check_unambiguous(node, path: list, source: str, key: bool = False) -> None
     elif isinstance(node, yaml.SequenceNode):
         for i, item in enumerate(node.value):
             _check_unambiguous(item, path + [i], source)
+    elif (isinstance(node, yaml.ScalarNode) and node.style is None and len(node.value) > MAX_NUMBER_CHARS
+          and node.tag in ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")):
+        what = f"the key {node.value[:20]}..." if key else f"{_dotted(path) if path else 'the value'} = {node.value[:20]}..."
+        raise ConfigError(f"{source}: {what} (line {node.start_mark.line + 1}) has {len(node.value)} characters: "
+                          f"allowed a number of at most {MAX_NUMBER_CHARS} characters")
     elif isinstance(node, yaml.ScalarNode) and node.style is None and node.tag in _AMBIGUOUS:
         pattern, fix = _AMBIGUOUS[node.tag]
         if pattern.match(node.value):
@@ -81,16 +90,16 @@ def _check_unambiguous(node, path: list, source: str, key: bool = False) -> None
                 f"allowed: {fix}")
 
 
-def yaml_load(text: str, source: str = "YAML"):
+def yaml_load(text: str, source: str = "YAML", path: Iterable = ()):
     """Parse YAML text with :class:`_Loader`, refusing the YAML 1.1 forms that 1.2 reads otherwise
     (``on``/``off``/``yes``/``no``, ``0123``, ``1:30``, ``1_000``) with a :class:`ConfigError`
-    naming the key, its line and the unambiguous spelling."""
+    naming the key (under ``path``, e.g. the key of a ``--set``), its line and the unambiguous spelling."""
     loader = _Loader(text)
     try:
         node = loader.get_single_node()
         if node is None:
             return None
-        _check_unambiguous(node, [], source)
+        _check_unambiguous(node, list(path), source)
         return loader.construct_document(node)
     finally:
         loader.dispose()
@@ -154,7 +163,7 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     if not parts:
         raise ConfigError(f"--set {text!r}: empty key")
     try:
-        value = yaml_load(raw, f"--set {key.strip()}")
+        value = yaml_load(raw, "--set", parts)
     except yaml.YAMLError:
         value = raw
     return parts, value
@@ -182,12 +191,15 @@ def apply_overrides(data: dict, overrides: Iterable[str]) -> dict:
 
 # -------------------------------------------------------------------- validation
 def _finite_number(checker, instance) -> bool:
-    """JSON Schema's ``number``, finite only: NaN and infinities are not numbers a case can use."""
-    return jsonschema.Draft202012Validator.TYPE_CHECKER.is_type(instance, "number") and math.isfinite(instance)
+    """JSON Schema's ``number``, finite only: NaN and infinities are not numbers a case can use
+    (an int is always finite; its range check refuses one too large)."""
+    return (jsonschema.Draft202012Validator.TYPE_CHECKER.is_type(instance, "number")
+            and not _nonfinite(instance))
 
 
 def _finite_integer(checker, instance) -> bool:
-    return jsonschema.Draft202012Validator.TYPE_CHECKER.is_type(instance, "integer") and math.isfinite(instance)
+    return (jsonschema.Draft202012Validator.TYPE_CHECKER.is_type(instance, "integer")
+            and not _nonfinite(instance))
 
 
 #: Draft 2020-12 whose ``number`` and ``integer`` refuse NaN and +-inf (YAML's .nan, .inf, or --set x=.nan)

@@ -117,6 +117,10 @@ class CostStudy:
             if not any(math.isclose(v, b, rel_tol=1e-9) for v in values):
                 raise ConfigError(f"{self.source}.knobs.{knob} = {values} is not allowed: the list must contain the "
                                   f"base case's value {b:g} (from rung {self.rung} after {self.source}.set)")
+        for knob in POST_KNOBS:  # analysis settings: each value within the bounds of the scene key it sets
+            for v in self.knobs.get(knob, []):
+                validate_scene(apply_knob(scene_name, self.base, self.rung, knob, v),
+                               source=f"{self.source}.knobs.{knob} (value {v:g})")
         if "t_average" in self.knobs:
             longest = max(self.knobs["t_average"])
             self.base_run_scene = apply_knob(scene_name, self.base, self.rung, "t_average", longest)

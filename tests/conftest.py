@@ -120,3 +120,82 @@ def scenes_off():
         return "".join(f"{' ' * indent}{name}: {{enabled: false}}\n" for name in registry.names() if name not in keep)
 
     return lines
+
+
+def _replace_once(text: str, old: str, new: str) -> str:
+    """``text`` with its one occurrence of ``old`` replaced by ``new``; fails loudly if ``old``
+    is absent or repeated (a config file edited by a test must still say what the test expects)."""
+    found = text.count(old)
+    assert found == 1, f"expected {old!r} exactly once in the text a test edits, found it {found} times"
+    return text.replace(old, new)
+
+
+@pytest.fixture(scope="session")
+def replace_once():
+    """``replace_once(text, old, new)``: :func:`str.replace` of exactly one occurrence, else a failure."""
+    return _replace_once
+
+
+def _check_png(path: Path, min_pixels: tuple[int, int] = (400, 300)):
+    """Assert ``path`` is a real PNG image of at least ``min_pixels`` (width, height), not blank.
+
+    Not blank: at least 1 % of the pixels differ from the most common colour (the
+    background). A figure at our 150 dpi is >= 6 x 4 inches (900 x 600 pixels); axes,
+    labels and a footer alone cover a few per cent of it. Returns the RGB(A) array.
+    """
+    import numpy as np
+    from matplotlib.image import imread
+
+    path = Path(path)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", f"{path} is not a PNG file"
+    image = imread(path)
+    height, width = image.shape[:2]
+    assert width >= min_pixels[0] and height >= min_pixels[1], f"{path}: only {width} x {height} pixels"
+    rgb = image[..., :3].reshape(-1, 3)
+    assert rgb.std() > 0, f"{path} is one flat colour"
+    colours, counts = np.unique(rgb, axis=0, return_counts=True)
+    drawn = 1 - counts.max() / len(rgb)
+    assert drawn > 0.01, f"{path}: {100 * drawn:.2f} % of the pixels differ from the background"
+    return image
+
+
+@pytest.fixture(scope="session")
+def check_png():
+    """``check_png(path, min_pixels=(400, 300))``: a real, non-blank PNG of plausible size."""
+    return _check_png
+
+
+def _plotted(ax) -> list[tuple]:
+    """Every (x, y) series drawn in ``ax``: lines (errorbar data lines included) and scatter offsets."""
+    import numpy as np
+
+    series = [(np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)) for line in ax.get_lines()]
+    for coll in ax.collections:
+        offsets = np.asarray(coll.get_offsets(), float)
+        if offsets.ndim == 2 and offsets.shape[1] == 2 and len(offsets):
+            series.append((offsets[:, 0], offsets[:, 1]))
+    return series
+
+
+def _assert_plotted(ax, x, y, rtol: float = 1e-12) -> None:
+    """Assert that ``ax`` shows the points (x, y), finite ones only, as one series (in order)."""
+    import numpy as np
+
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    want_x, want_y = x[ok], y[ok]
+    for px, py in _plotted(ax):
+        keep = np.isfinite(px) & np.isfinite(py)
+        px, py = px[keep], py[keep]
+        if len(px) == len(want_x) and np.allclose(px, want_x, rtol=rtol, atol=0) \
+                and np.allclose(py, want_y, rtol=rtol, atol=0):
+            return
+    shown = [(len(px), px[:3].tolist(), py[:3].tolist()) for px, py in _plotted(ax)]
+    raise AssertionError(f"{ax.get_title()!r}: no series with the {len(want_x)} points "
+                         f"x = {want_x[:3].tolist()}..., y = {want_y[:3].tolist()}...; shown: {shown}")
+
+
+@pytest.fixture(scope="session")
+def assert_plotted():
+    """``assert_plotted(ax, x, y)``: the axes show exactly these points as one series."""
+    return _assert_plotted

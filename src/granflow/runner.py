@@ -198,30 +198,49 @@ def log(msg: str) -> None:
 
 
 # ------------------------------------------------------------------ log parsing
+def _thermo_row(words: list[str], header: list[str]) -> list[float] | None:
+    """The numbers of one thermo line under ``header``, or None if the line is not one."""
+    if len(words) != len(header):
+        return None
+    try:
+        return [float(w) for w in words]
+    except ValueError:
+        return None
+
+
 def parse_thermo(log_path: str | Path) -> pd.DataFrame:
-    """All thermo blocks of a LAMMPS log as one DataFrame (columns as LAMMPS names them)."""
+    """All thermo blocks of a LAMMPS log as one DataFrame (columns as LAMMPS names them).
+
+    A block starts at its ``Step ...`` header and ends at ``Loop time`` (or at the
+    next header, or the end of a log cut short). Inside a block, a line that is not a
+    row of as many numbers as the header has columns is skipped, not taken as the end:
+    LAMMPS prints its warnings there, e.g. ``WARNING: Lost atoms: original 2000 current
+    1998`` and its ``For more information see ...`` line under ``thermo_modify lost warn``.
+    """
     frames = []
     header = None
     rows: list[list[float]] = []
+
+    def close() -> None:
+        if header is not None and rows:
+            frames.append(pd.DataFrame(rows, columns=header))
+
     for line in Path(log_path).read_text(errors="replace").splitlines():
         words = line.split()
         if words[:1] == ["Step"]:
+            close()
             header, rows = words, []
             continue
-        if header is not None:
-            if line.startswith("Loop time") or len(words) != len(header):
-                if rows:
-                    frames.append(pd.DataFrame(rows, columns=header))
-                header, rows = None, []
-                continue
-            try:
-                rows.append([float(w) for w in words])
-            except ValueError:
-                if rows:
-                    frames.append(pd.DataFrame(rows, columns=header))
-                header, rows = None, []
-    if header is not None and rows:
-        frames.append(pd.DataFrame(rows, columns=header))
+        if header is None:
+            continue
+        if line.startswith("Loop time"):
+            close()
+            header, rows = None, []
+            continue
+        row = _thermo_row(words, header)
+        if row is not None:
+            rows.append(row)
+    close()
     if not frames:
         return pd.DataFrame()
     return pd.concat(frames, ignore_index=True)

@@ -50,9 +50,10 @@ def cost_campaign(tmp_path_factory, root, scenes_off):
             "within": pd.read_csv(base / "within.csv")}
 
 
-def test_outputs_exist(cost_campaign):
+def test_outputs_exist(cost_campaign, check_png):
     base = cost_campaign["base"]
     assert (base / "error_vs_cost.png").stat().st_size > 10_000
+    check_png(base / "error_vs_cost.png")
     assert sorted(p.name for p in (base / "runs").iterdir()) == ["base", "dt_fraction~0.05"]
     assert sorted(p.name for p in (base / "points").iterdir()) == ["base", "dt_fraction~0.05", "t_average~5"]
     summary = json.loads((base / "summary.json").read_text())

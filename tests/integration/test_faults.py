@@ -75,13 +75,15 @@ def test_truncated_dump_fails_naming_file_and_frame(channel_scene, tmp_path):
     assert "dump_002.bin" in msg and "frame" in msg and "truncated" in msg
 
 
-def test_snakemake_marks_nothing_complete_after_a_failure(tmp_path, root):
+def test_snakemake_marks_nothing_complete_after_a_failure(tmp_path, root, replace_once, scenes_off):
     """A damaged dump makes the analysis rule fail; its outputs do not exist afterwards."""
     results = tmp_path / "results"
     scene = (root / "config" / "scenes" / "channel.yaml").read_text()
-    (tmp_path / "channel.yaml").write_text(scene.replace("average_unsteady: false", "average_unsteady: true"))
+    (tmp_path / "channel.yaml").write_text(replace_once(scene, "average_unsteady: false", "average_unsteady: true"))
     cfg = tmp_path / "config.yaml"
-    cfg.write_text(f"rung: smoke\nresults_dir: {results}\nscenes:\n  heap:\n    enabled: false\n  silo:\n    enabled: false\n  channel:\n    enabled: true\n"
+    # every other scene off (the campaign merges into config/config.yaml, where all are on)
+    cfg.write_text(f"rung: smoke\nresults_dir: {results}\nscenes:\n" + scenes_off(keep=("channel",))
+                   + "  channel:\n    enabled: true\n"
                    f"    scene_file: {tmp_path / 'channel.yaml'}\n    sweep:\n      W: [10]\n      phi_mean: [0.58]\n")
     case = results / "channel" / "smoke" / "W~10" / "phi~0.58"
     base = [str(BIN / "snakemake"), "--snakefile", str(root / "Snakefile"), "--directory", str(tmp_path),

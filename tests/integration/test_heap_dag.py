@@ -41,12 +41,13 @@ def heap_campaign(tmp_path_factory, root, scenes_off):
             "case": {m: base / f"mix~{m}" / "mdot~3" for m in MIXTURES}}
 
 
-def test_dag_produces_table_and_figures(heap_campaign):
+def test_dag_produces_table_and_figures(heap_campaign, check_png):
     table = heap_campaign["table"]
     assert sorted(table.index) == sorted(MIXTURES) and set(table["rung"]) == {"smoke"}
     for name in ("fig03_segregation", "fig04_surface", "fig05_velocity", "fig06_streamwise", "fig07_collapse",
                  "fig08_normal", "fig09_all_cases", "fig10_scaled", "fig11_qstar"):
         assert (heap_campaign["base"] / "figures" / f"{name}.png").stat().st_size > 10_000
+        check_png(heap_campaign["base"] / "figures" / f"{name}.png")
     # every row says which fidelity produced it, and nothing was stopped by a guard
     assert table["provenance"].str.contains("rung smoke").all()
     assert set(table["status"]) <= {"steady", "unsteady"}
@@ -58,27 +59,85 @@ def test_delivered_feed_rate_matches_request(heap_campaign):
     assert (table["feed_rate_error"].abs() <= 0.05).all(), table["feed_rate_error"]
 
 
-def test_mass_conservation_predicts_the_rise_velocity(heap_campaign):
-    """v_r measured from the free surface against v_r = m_dot/(rho phi_bed T W).
+@pytest.mark.parametrize("mixture", [
+    "mono1.5",
+    # a real discrepancy this test found, not yet explained: the smoke bidisperse heap rises
+    # 11.6 +- 3.7 % faster than mass balance with the deep bed's phi (+3.2 sigma; the mono heap
+    # agrees, -1.6 +- 2.5 %). Either the window the runner calls steady is not (alpha drifts
+    # ~-5 deg/s over it) or the freshly deposited layer packs looser (~0.56) than the bed (0.61).
+    pytest.param("bi1.5-2.25", marks=pytest.mark.xfail(strict=True, reason="v_r 11.6 % above mass balance "
+                                                        "(3.2 sigma), cause not yet found")),
+])
+def test_mass_conservation_predicts_the_rise_velocity(heap_campaign, mixture):
+    """v_r measured from the free surface against v_r = m_dot/(rho phi_bed T W), within 3 standard errors.
 
-    At smoke size the surface rises only ~2 diameters over the window and is
-    located in bins of half a diameter, so agreement within 20 % is what the
-    data resolve (the demo heap, 10x longer, closes to a few per cent).
+    The error of the ratio is the one the validation record reports
+    (:func:`granflow.scenes.heap.validation.rise_check`): the least-squares error of v_r
+    times sqrt(g) for correlated surface residuals, and the error of the delivered rate,
+    in quadrature. phi_bed's own error is left out: its per-frame mean scatters by
+    ~0.1-0.3 %, against 2-4 % for the ratio. 3 sigma: a 0.3 % chance per case of a false alarm.
     """
+    from granflow.scenes.heap.validation import load_case, rise_check
+
     table = heap_campaign["table"]
     assert np.isfinite(table["phi_bed"]).all() and (table["phi_bed"].between(0.5, 0.7)).all()
-    assert (table["mass_balance_residual"].abs() < 0.2).all(), table["mass_balance_residual"]
+    check = rise_check(load_case(mixture, heap_campaign["case"][mixture]))
+    assert np.isfinite(check.ours) and 0 < check.error < 0.1 * check.ours, (mixture, vars(check))
+    # the ratio is v_r/v_r_predicted of the table
+    row = table.loc[mixture]
+    assert check.ours == pytest.approx(1 + row["mass_balance_residual"], rel=1e-9)
+    assert abs(check.ours - 1.0) <= 3 * check.error, (
+        f"{mixture}: v_r/v_r_predicted = {check.ours:.4f} +- {check.error:.4f} "
+        f"({(check.ours - 1) / check.error:+.2f} sigma); {check.note}")
 
 
 def test_no_mass_appears_or_vanishes(heap_campaign):
-    """The particles in the last frame carry exactly the total mass LAMMPS reports at that step."""
-    for case in heap_campaign["case"].values():
-        thermo = pd.read_csv(case / "run" / "thermo.csv")
+    """Mass enters only through the pour, in whole insertions, and never leaves or changes.
+
+    From the particle ids of consecutive frames of the averaging window: every particle of a
+    frame is in the next with the same type and mass (nothing leaves, nothing changes mass);
+    the new ones are nper_s particles of each species s per insertion, the same number of
+    insertions for every species, one every n_feed steps; every particle's mass is that of a
+    sphere of its diameter at the material density, within its species' diameter range.
+    LAMMPS's own total (thermo v_mtot, 8 significant digits: 1e-7) never decreases, matches
+    the particles of each frame and grows by exactly the mass of the new ones.
+    """
+    for mixture, case in heap_campaign["case"].items():
+        record = json.loads((case / "params.json").read_text())
         status = json.loads((case / "run" / "status.json").read_text())
-        frame = list(read_dump(case / "run" / status["dumps"][-1]))[-1]
-        row = thermo[thermo["Step"] == frame.timestep]
-        assert len(row) == 1
-        np.testing.assert_allclose(frame.columns["mass"].sum(), row["v_mtot"].iloc[0], rtol=1e-6)
+        thermo = pd.read_csv(case / "run" / "thermo.csv").drop_duplicates("Step").set_index("Step")
+        pours = record["feed"]["pours"]
+        n_feed, n_dump = record["parameters"]["n_feed"], record["parameters"]["n_dump"]
+        frames = [f for name in status["dumps"] for f in read_dump(case / "run" / name)]
+        assert len(frames) > 10, (mixture, len(frames))
+        assert (np.diff(thermo["v_mtot"]) >= 0).all() and (np.diff(thermo["Atoms"]) >= 0).all(), mixture
+        insertions = 0
+        for before, after in zip(frames[:-1], frames[1:]):
+            assert after.timestep - before.timestep == n_dump
+            old = dict(zip(before.columns["id"].astype(int), zip(before.columns["type"], before.columns["mass"])))
+            now = dict(zip(after.columns["id"].astype(int), zip(after.columns["type"], after.columns["mass"])))
+            assert set(old) <= set(now), f"{mixture}: particles vanished at step {after.timestep}"
+            assert all(now[i] == old[i] for i in old), f"{mixture}: a particle changed type or mass"
+            new = [now[i] for i in set(now) - set(old)]
+            counts = [sum(1 for t, _ in new if int(t) == p["type"]) for p in pours]
+            k = counts[0] // pours[0]["nper"]
+            assert counts == [k * p["nper"] for p in pours], (mixture, after.timestep, counts)
+            assert k <= -(-n_dump // n_feed)  # at most one insertion per n_feed steps
+            insertions += k
+            np.testing.assert_allclose(sum(m for _, m in new),
+                                       thermo.loc[after.timestep, "v_mtot"] - thermo.loc[before.timestep, "v_mtot"],
+                                       rtol=0, atol=2e-7 * thermo.loc[after.timestep, "v_mtot"])
+        span = frames[-1].timestep - frames[0].timestep
+        assert span // n_feed <= insertions <= -(-span // n_feed), (mixture, insertions, span / n_feed)
+        assert insertions > 0
+        for frame in frames:
+            c = frame.columns
+            d = 2 * c["radius"]
+            np.testing.assert_allclose(c["mass"], record["density"] * np.pi * d ** 3 / 6, rtol=1e-12)
+            for s in record["species"]:
+                sel = d[c["type"].astype(int) == s["type"]]
+                assert sel.min() >= s["d_lo"] * (1 - 1e-9) and sel.max() <= s["d_hi"] * (1 + 1e-9)
+            np.testing.assert_allclose(c["mass"].sum(), thermo.loc[frame.timestep, "v_mtot"], rtol=1e-7)
 
 
 def test_bidisperse_case_tags_species_and_reports_c_s(heap_campaign):

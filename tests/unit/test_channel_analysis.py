@@ -285,12 +285,36 @@ def test_accelerating_and_jammed_and_fluctuating():
     assert detect_steady_state(t[:100], u[:100], 600.0).status == "no_steady_state"
 
 
-def test_block_average_white_noise():
-    x = 3.0 + np.random.default_rng(3).standard_normal(20000)
-    mean, se = block_average(x, 20)
-    # se of 20 block means scatters by 1/sqrt(2*19) = 16 %; allow 3 sigma
-    assert_allclose(se, 1 / np.sqrt(20000), rtol=0.5)
-    assert abs(mean - 3.0) < 4 / np.sqrt(20000)
+def test_block_average_error_of_a_correlated_series():
+    """Block errors of AR(1) series x_k = a x_(k-1) + e_k, whose mean has a known error.
+
+    With a = 0.9 the statistical inefficiency is g = (1 + a)/(1 - a) = 19 and the variance
+    1/(1 - a^2), so the true standard error of the mean of n samples is sqrt(g/((1 - a^2) n)),
+    sqrt(19) = 4.4 times the naive sigma/sqrt(n) that ignores the correlation. 400 independent
+    series of n = 20000 in 20 blocks of 1000 (50 g, so the block means are nearly independent:
+    their variance is low by 2a/((1 - a)^2 g L) = 1 %).
+
+    * se^2 averages to the true variance of the mean: each se^2 scatters by sqrt(2/19) = 32 %,
+      the average of 400 by 1.6 %; 3 sigma plus the 1 % bias gives 6 %.
+    * the interval mean +- se holds the true mean 0 as often as Student's t with 19 degrees of
+      freedom says, P(|t| < 1) = 0.670; binomial sigma for 400 series sqrt(0.67 0.33/400) =
+      0.024, so 3 sigma is 0.07 (the naive error would cover 18 % of the time).
+    """
+    from scipy.signal import lfilter
+    from scipy.stats import t as student
+
+    a, n, n_series, n_blocks = 0.9, 20_000, 400, 20
+    rng = np.random.default_rng(3)
+    x = lfilter([1.0], [1.0, -a], rng.standard_normal((n_series, n + 2000)), axis=1)[:, 2000:]
+    true_se = np.sqrt((1 + a) / (1 - a) / (1 - a**2) / n)
+    means, ses = np.array([block_average(series, n_blocks) for series in x]).T
+    assert_allclose(np.mean(ses**2), true_se**2, rtol=0.06)
+    covered = np.mean(np.abs(means) < ses)
+    expected = student.cdf(1, n_blocks - 1) - student.cdf(-1, n_blocks - 1)
+    assert abs(covered - expected) < 0.07, (covered, expected)
+    # the naive error is far below: block averaging is what finds the correlation
+    naive = np.std(x, axis=1, ddof=1) / np.sqrt(n)
+    assert np.mean(naive) < 0.3 * true_se
 
 
 # --------------------------------------------------------------------------- plots
@@ -307,27 +331,45 @@ def cases():
 
 @pytest.mark.parametrize("name", ["fig_velocity_profiles", "fig_ratio_vs_phi", "fig_stress_profiles",
                                   "fig_phi_shear_temperature", "fig_rheology"])
-def test_figures_written_with_provenance(cases, tmp_path, name):
+def test_figures_written_with_provenance(cases, tmp_path, check_png, name):
     path = tmp_path / f"{name}.png"
     fig = getattr(plots, name)(cases, path)
     # a rendered multi-panel 150 dpi PNG with data is well above 10 kB; an empty
     # or failed figure is a few kB
-    assert path.exists() and path.stat().st_size > 10_000
+    assert path.stat().st_size > 10_000
+    check_png(path)
     footer = " ".join(t.get_text() for t in fig.texts)
     assert "synthetic test · W=61 d_p" in footer and "synthetic test · W=100 d_p" in footer
     assert footer.count("W=61 d_p") == 1  # distinct provenance strings only
 
 
-def test_ratio_figure_has_one_series_per_width(cases, tmp_path):
+def test_ratio_figure_has_one_series_per_width(cases, tmp_path, assert_plotted):
     fig = plots.fig_ratio_vs_phi(cases, tmp_path / "r.png")
     labels = fig.axes[0].get_legend_handles_labels()[1]
     assert labels == ["W = 61 $d_p$", "W = 100 $d_p$"]
+    # each series is its cases' u_max/u_slip of the table, in order of phi
+    for W in (61.0, 100.0):
+        rows = sorted((c for c in cases if c["W"] == W), key=lambda c: c["phi_mean"])
+        assert_plotted(fig.axes[0], [c["phi_mean"] for c in rows], [c["scalars"]["ratio"] for c in rows])
 
 
-def test_figures_survive_missing_optional_fields(tmp_path):
+def test_velocity_and_stress_figures_plot_the_profiles(cases, tmp_path, assert_plotted):
+    """What the figures draw is the folded profile of each case: u = -u_y against the distance from
+    the wall (figure 4a), sigma_xx and sigma_xy (figure 6), with nothing lost or shifted."""
+    vel = plots.fig_velocity_profiles(cases, tmp_path / "v.png")
+    stress = plots.fig_stress_profiles(cases, tmp_path / "s.png")
+    for case in cases:
+        folded = ch.analyse_profile(case["profile"], case["W"]).folded
+        u, _ = ch.downward_speed(folded)
+        assert_plotted(vel.axes[0], folded["x"], u)
+        assert_plotted(stress.axes[0], folded["x"], folded["sigma_xx"])
+        assert_plotted(stress.axes[1], folded["x"], folded["sigma_xy"])
+
+
+def test_figures_survive_missing_optional_fields(tmp_path, check_png):
     prof = make_profile(61.0, optional=False)
     case = dict(label="bare", W=61.0, phi_mean=0.6, profile=prof,
                 scalars=ch.analyse_channel(prof, 61.0, 0.6), provenance="bare")
     for name in ("fig_stress_profiles", "fig_phi_shear_temperature", "fig_rheology"):
         getattr(plots, name)([case], tmp_path / f"{name}.png")
-        assert (tmp_path / f"{name}.png").exists()
+        check_png(tmp_path / f"{name}.png")

@@ -43,14 +43,34 @@ def test_unsafe_time_step_refused_with_passing_value(channel_scene):
     channel_parameters(scene, "smoke")  # accepted
 
 
+def hooke_contact_time(k_n: float, m_eff: float, xi_n: float) -> float:
+    """t_c = pi / sqrt(k_n/m_eff - xi_n^2/4): half a period of the damped linear spring
+    (LAMMPS gran/hooke: damping force m_eff xi_n v_n, so xi_n = 2 gamma_n of F = 2 gamma_n m_eff v)."""
+    return math.pi / math.sqrt(k_n / m_eff - xi_n**2 / 4)
+
+
 def test_stiff_case_with_proper_step_accepted(channel_scene):
+    """The time step at k_n = 1e8 against a hand calculation from the scene file's numbers.
+
+    Channel units: density 6/pi, so a sphere of diameter d has mass d^3; e_n = 0.82 for the
+    d_p pair (m_eff = 1/2) fixes the damping, xi_n = -2 ln e / t_ref with
+    t_ref = sqrt(m_eff (pi^2 + ln^2 e)/k_n). The shortest contact is the 0.9 d_p pair,
+    m_eff = 0.9^3/2; the smoke rung's step is 0.08 of it.
+    """
     import copy
 
     scene = copy.deepcopy(channel_scene)
     scene["rungs"]["smoke"]["k_n"] = 1e8
     params, ctx = channel_parameters(scene, "smoke")
     p = {q.name: q.value for q in params}
-    assert p["dt"] <= 0.1 * p["t_c_min"]
+    k_n, ln_e = 1e8, math.log(0.82)
+    xi_n = -2 * ln_e / math.sqrt(0.5 * (math.pi**2 + ln_e**2) / k_n)
+    t_c = hooke_contact_time(k_n, 0.9**3 / 2, xi_n)
+    assert t_c == pytest.approx(1.8995e-4, rel=1e-4)  # the number itself, written out
+    # the record rounds t_c_min to 9 decimals and dt to 10
+    assert p["t_c_min"] == pytest.approx(t_c, abs=5e-10)
+    assert p["dt"] == pytest.approx(0.08 * t_c, abs=5e-11)
+    assert p["dt"] <= 0.1 * t_c  # the preflight's limit, dt_max_fraction
     assert math.isclose(p["k_t"], 2 / 7 * 1e8, rel_tol=1e-9)
 
 

@@ -323,7 +323,7 @@ def figure_records(n_obs: int) -> pd.DataFrame:
 
 
 @pytest.mark.parametrize("n_obs, n_axes", [(1, 1), (3, 3), (5, 4)])
-def test_plot_error_vs_cost(tmp_path, n_obs, n_axes):
+def test_plot_error_vs_cost(tmp_path, check_png, assert_plotted, n_obs, n_axes):
     err = cost.knob_errors(figure_records(n_obs))
     assert err["is_ref"].sum() == 3 * n_obs and err["error"].isna().sum() == 1
     fig = cost.plot_error_vs_cost(err, "channel", footer="rung demo · W=20 d_p · k_n=1e5 · N=2700")
@@ -340,9 +340,15 @@ def test_plot_error_vs_cost(tmp_path, n_obs, n_axes):
     ax0 = fig.axes[0]
     assert any(np.allclose(ln.get_ydata(), 5.0) for ln in ax0.get_lines() if len(ln.get_ydata()) == 2)
     assert sum(t.get_text().endswith(" ref") for t in ax0.texts) == 3
+    # every non-reference point of the first observable is drawn at (CPU-seconds, |error| in %)
+    obs0 = err[(err["observable"] == "obs0") & ~err["is_ref"] & np.isfinite(err["abs_error"])]
+    assert len(obs0) == 6  # 3 knobs x (values - ref), one failed run left out
+    for _, row in obs0.iterrows():
+        assert_plotted(ax0, [row["cpu_s"]], [100 * row["abs_error"]])
     path = tmp_path / "error_cost.png"
     fig.savefig(path, dpi=150)
     assert path.stat().st_size > 10_000
+    check_png(path)
 
 
 def test_plot_error_vs_cost_unknown_scene(tmp_path):

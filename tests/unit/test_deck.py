@@ -1,6 +1,7 @@
 """Rendered decks: StrictUndefined, typed values, effects -> exactly those commands."""
 import copy
 import json
+import math
 import re
 
 import jinja2
@@ -23,8 +24,20 @@ def test_every_number_is_a_commented_variable(channel_scene, tmp_path):
     assert len(lines) > 20
     for line in lines[:30]:
         assert "#" in line, line
-    record = json.loads((tmp_path / "params.json").read_text())
-    assert record["parameters"]["dt"] <= 0.1 * record["parameters"]["t_c_min"]
+    # the deck's time step against a hand calculation from config/scenes/channel.yaml (demo rung):
+    # k_n = 1e6, e_n = 0.82 for the d_p pair (m_eff = 1/2: density 6/pi gives a d^3 mass),
+    # shortest contact the 0.9 d_p pair (m_eff = 0.9^3/2), dt = 0.08 t_c
+    ln_e = math.log(0.82)
+    xi_n = -2 * ln_e / math.sqrt(0.5 * (math.pi**2 + ln_e**2) / 1e6)
+    t_c = math.pi / math.sqrt(1e6 / (0.9**3 / 2) - xi_n**2 / 4)
+    assert t_c == pytest.approx(1.8995e-3, rel=1e-4)
+    deck = dict(re.findall(r"^variable +(\w+) +equal +([-+.0-9eE]+) +#", text, re.M))
+    deck = {name: float(value) for name, value in deck.items()}
+    assert deck["xi_n"] == pytest.approx(xi_n, abs=5e-10)
+    assert deck["t_c_min"] == pytest.approx(t_c, abs=5e-10)   # written with 9 decimals
+    assert deck["dt"] == pytest.approx(0.08 * t_c, abs=5e-11)  # written with 10 decimals
+    for stage in ("init", "flow", "average"):  # and it is the step LAMMPS takes
+        assert re.search(r"^timestep +\$\{dt\}$", (tmp_path / f"{stage}.lmp").read_text(), re.M), stage
 
 
 def _commands(path):

@@ -21,8 +21,23 @@ def test_contact_time_and_restitution_of_reference_pair(heap_scene, tmp_path):
     ref = [c for c in record["contacts"] if c["name"] == "0.0015-0.0015 pair"][0]
     assert ref["t_c"] == pytest.approx(1.0e-3, rel=1e-9)
     assert ref["e_n"] == pytest.approx(0.8, rel=1e-9)
-    # the time step resolves the shortest contact (the smallest particles of the spread)
-    assert record["dt"] <= 0.1 * min(c["t_c"] for c in record["contacts"])
+    # the deck's time step against a hand calculation from config/scenes/heap.yaml (demo rung,
+    # mono1.5): the 1.5 mm pair (m_eff = m/2, m = rho pi d^3/6, rho = 2500) has t_c = 1 ms and
+    # e = 0.8, so xi_n = -2 ln e/t_c and k_n = m_eff (pi^2/t_c^2 + xi_n^2/4); the shortest contact
+    # is the pair of the smallest particles of the spread, uniform with std 0.1 d, so
+    # d_lo = d (1 - 0.1 sqrt 3); dt = 0.02 of it
+    rho, d, t_ref, e = 2500.0, 1.5e-3, 1.0e-3, 0.8
+    m_pair = lambda diameter: rho * math.pi * diameter**3 / 6 / 2  # noqa: E731
+    xi_n = -2 * math.log(e) / t_ref
+    k_n = m_pair(d) * (math.pi**2 / t_ref**2 + xi_n**2 / 4)
+    t_c = math.pi / math.sqrt(k_n / m_pair(d * (1 - 0.1 * math.sqrt(3))) - xi_n**2 / 4)
+    assert t_c == pytest.approx(7.5097e-4, rel=1e-4)
+    deck = {name: float(value) for name, value in
+            re.findall(r"^variable +(\w+) +equal +([-+.0-9eE]+) +#", (tmp_path / "flow.lmp").read_text(), re.M)}
+    assert deck["k_n"] == pytest.approx(k_n, abs=5e-10)     # written with 9 decimals
+    assert deck["t_c_min"] == pytest.approx(t_c, abs=5e-13)
+    assert deck["dt"] == pytest.approx(0.02 * t_c, abs=5e-13)  # written with 12 decimals
+    assert re.search(r"^timestep +\$\{dt\}$", (tmp_path / "flow.lmp").read_text(), re.M)
 
 
 def test_species_spread_is_uniform_with_the_requested_std(heap_scene):
@@ -83,11 +98,19 @@ def test_bidisperse_deck_pours_two_types(heap_scene, tmp_path):
 
 @pytest.mark.lammps
 @pytest.mark.parametrize("rung", ["smoke", "demo", "study", "paper", "validation"])
-def test_every_rung_passes_skiprun(heap_scene, tmp_path, skiprun, rung):
+def test_every_rung_passes_skiprun(heap_scene, tmp_path, skiprun, replace_once, rung):
     """Each stage parses and sets up in LAMMPS; fix pour plans exactly our nper and nfreq."""
     record = render_case(heap_scene, rung, tmp_path, SMOKE_CASE if rung == "smoke" else None)
-    # -skiprun would still loop over the freeze interval's short runs; one step is enough here
-    out = skiprun(tmp_path, STAGES, edit=lambda stage, text: text.replace("run             ${n_segment}", "run 1"))
+
+    def one_step(stage, text):
+        """-skiprun would still loop over the freeze interval's short runs; one step is enough here.
+        The init stage only builds the box (``run 0``); each flow stage has the one segment run."""
+        if stage == "init":
+            assert "${n_segment}" not in text
+            return text
+        return replace_once(text, "run             ${n_segment}", "run 1")
+
+    out = skiprun(tmp_path, STAGES, edit=one_step)
     m = re.search(r"Particle insertion: (\d+) every (\d+) steps", out["flow"])
     assert m, out["flow"][-2000:]
     # LAMMPS's own nper and nfreq are the ones the rate was planned with

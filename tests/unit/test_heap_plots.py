@@ -142,18 +142,33 @@ def test_registry_names():
 
 
 @pytest.mark.parametrize("name", list(EXPECTED_AXES))
-def test_figure_written_with_axes_and_provenance(cases, tmp_path, checked_fits, name):
+def test_figure_written_with_axes_and_provenance(cases, tmp_path, checked_fits, check_png, name):
     path = tmp_path / f"{name}.png"
     fig = hp.HEAP_FIGURES[name](cases, path)
     # a rendered 150 dpi PNG with data is well above 10 kB; an empty or failed
     # figure is a few kB
-    assert path.exists() and path.stat().st_size > 10_000
+    assert path.stat().st_size > 10_000
+    check_png(path)
     assert len(data_axes(fig)) == EXPECTED_AXES[name]
     footer = " ".join(t.get_text() for t in fig.texts)
     for c in cases:
         # the footer wraps lines at spaces: compare without whitespace
         assert "".join(c["provenance"].split()) in "".join(footer.split())
     assert "not available" not in all_texts(fig)
+
+
+def test_figures_plot_the_per_x_table(cases, tmp_path, assert_plotted):
+    """Figure 11 shows each case's delta/d_bar against q* where x/L >= 0.2, figure 6 the first
+    case's q (in cm^2/s) and u_s against x: the numbers of the per_x table, none lost or moved."""
+    fig = hp.fig11_qstar(cases, tmp_path / "q.png")
+    for case in cases:
+        px = case["per_x"][case["per_x"]["x_over_L"] >= 0.2]
+        assert_plotted(fig.axes[0], px["q_star"], px["delta"] / px["d_bar"])
+    fig = hp.fig06_streamwise(cases, tmp_path / "s.png")
+    px = cases[0]["per_x"]
+    assert_plotted(fig.axes[0], px["x"], px["q"] * 1e4)
+    assert_plotted(fig.axes[1], px["x"], px["u_s"])
+    assert_plotted(fig.axes[2], px["x"], px["gamma_bar"])
 
 
 def test_qstar_exponent_in_legend(cases, tmp_path):
@@ -178,7 +193,7 @@ def test_collapse_labels_paper_tail(cases, tmp_path):
 
 
 @pytest.mark.parametrize("name", list(EXPECTED_AXES))
-def test_nan_only_and_missing_inputs(cases, tmp_path, checked_fits, name):
+def test_nan_only_and_missing_inputs(cases, tmp_path, checked_fits, check_png, name):
     nan = nan_case(cases[2])
     bare = dict(label="bare", provenance="rung bare", bidisperse=True, scalars=None)  # no frames at all
     one_point = dict(cases[0], per_x=cases[0]["per_x"].iloc[[30]], provenance="rung one point")
@@ -186,16 +201,16 @@ def test_nan_only_and_missing_inputs(cases, tmp_path, checked_fits, name):
     for i, sample in enumerate(([nan], [bare], [one_point, holey, nan])):
         path = tmp_path / f"{name}_{i}.png"
         fig = hp.HEAP_FIGURES[name](sample, path)
-        assert path.exists() and path.stat().st_size > 0
+        check_png(path)
         assert len(data_axes(fig)) == EXPECTED_AXES[name]
         assert sample[0]["provenance"] in " ".join(t.get_text() for t in fig.texts)
 
 
 @pytest.mark.parametrize("name", list(EXPECTED_AXES))
-def test_empty_cases(tmp_path, name):
+def test_empty_cases(tmp_path, check_png, name):
     path = tmp_path / f"{name}.png"
     fig = hp.HEAP_FIGURES[name]([], path)
-    assert path.exists() and path.stat().st_size > 0
+    check_png(path)
     assert "no averaged case" in all_texts(fig)
 
 

@@ -183,3 +183,72 @@ def test_no_slurm_allocation_outside_slurm(monkeypatch):
     for var in ("SLURM_JOB_ID", "SLURM_CPUS_ON_NODE", "SLURM_JOB_PARTITION"):
         monkeypatch.delenv(var, raising=False)
     assert slurm_allocation() is None
+
+
+# ------------------------------------------------------------- thermo blocks with interjections
+#: Two runs of a log. The first prints LAMMPS's lost-atoms warning (``thermo_modify lost warn``,
+#: the two lines verbatim as LAMMPS 22 Jul 2025 prints them in the stock funnel example), a
+#: second warning and a fix halt message between its rows; the second run follows as usual.
+LOG_WITH_WARNINGS = """\
+LAMMPS (22 Jul 2025 - Update 4)
+thermo_modify   flush yes lost warn
+run             4000
+Per MPI rank memory allocation (min/avg/max) = 18.15 | 19.31 | 20.47 Mbytes
+   Step          CPU          Atoms        KinEng    
+    224000   38.290181           2000   1245.6525    
+    225000   38.587386           2000   1296.5979    
+WARNING: Lost atoms: original 2000 current 1998
+For more information see https://docs.lammps.org/err0008 (src/src/thermo.cpp:532)
+    226000   38.898249           1998   1342.9602    
+    227000   39.199411           1998   1396.6773    
+WARNING: Lost atoms: original 1998 current 1997
+For more information see https://docs.lammps.org/err0008 (src/src/thermo.cpp:532)
+    228000   39.525993           1997   1449.0657    
+Fix halt condition for fix-id settled met on step 228000 with value 9.399460806170515e-05
+Loop time of 39.6 on 2 procs for 4000 steps with 1997 atoms
+
+Performance: 100.0 tau/day, 400.0 timesteps/s, 0.171 Matom-step/s
+WARNING: Lost atoms: original 1997 current 1990 (src/thermo.cpp:494)
+   Step          CPU          Atoms        KinEng    
+    228000   0                   1997   1449.0657    
+    229000   0.30399             1989   1467.4693    
+Loop time of 0.3 on 2 procs for 1000 steps with 1989 atoms
+"""
+
+
+def test_parse_thermo_skips_warnings_inside_a_block(tmp_path):
+    """Warnings LAMMPS prints between the rows of a run do not end the block: every row is kept,
+    with its values, and the next run's block is read too. The warning after ``Loop time`` (between
+    blocks) is ignored as well."""
+    log = tmp_path / "warned.log"
+    log.write_text(LOG_WITH_WARNINGS)
+    th = parse_thermo(log)
+    assert list(th.columns) == ["Step", "CPU", "Atoms", "KinEng"]
+    # 5 rows of the first run (two lost-atoms warnings and a halt message among them), 2 of the second
+    assert list(th["Step"]) == [224000, 225000, 226000, 227000, 228000, 228000, 229000]
+    assert list(th["Atoms"]) == [2000, 2000, 1998, 1998, 1997, 1997, 1989]
+    assert list(th["KinEng"]) == [1245.6525, 1296.5979, 1342.9602, 1396.6773, 1449.0657, 1449.0657, 1467.4693]
+    assert th["CPU"].iloc[3] == 39.199411 and th["CPU"].iloc[5] == 0.0
+
+
+def test_parse_thermo_of_a_run_cut_short_keeps_its_rows(tmp_path):
+    """A killed run has no ``Loop time``: its rows up to the end of the log are kept, a torn last line
+    (fewer words than the header) and an ERROR line are not rows."""
+    text = LOG_WITH_WARNINGS.split("Loop time of 0.3")[0]
+    log = tmp_path / "killed.log"
+    log.write_text(text + "    230000   0.6\nERROR: Lost atoms: original 1989 current 1980 (src/thermo.cpp:494)\n")
+    th = parse_thermo(log)
+    assert list(th["Step"]) == [224000, 225000, 226000, 227000, 228000, 228000, 229000]
+
+
+def test_thermo_of_segments_keeps_rows_after_a_warning(tmp_path):
+    """The runner's view of completed segments (steady detection, thermo.csv) keeps the rows after
+    a warning; the repeated first step of the second run is dropped as for any segment."""
+    (tmp_path / "params.json").write_text(json.dumps({"protocol": {}}))
+    logs = tmp_path / "run" / "logs"
+    logs.mkdir(parents=True)
+    (logs / "flow_001.log").write_text(LOG_WITH_WARNINGS)
+    (tmp_path / "run" / "flow_001.restart").write_text("complete")
+    th = CaseRunner(tmp_path).thermo("flow")
+    assert list(th["Step"]) == [224000, 225000, 226000, 227000, 228000, 229000]
+    assert th["Atoms"].iloc[-1] == 1989

@@ -130,16 +130,31 @@ def rendered(cases, tmp_path_factory):
 
 
 @pytest.mark.parametrize("name", list(EXPECTED_AXES))
-def test_figure_written_with_provenance(cases, rendered, name):
+def test_figure_written_with_provenance(cases, rendered, check_png, name):
     fig, path = rendered[name]
     # a rendered 150 dpi PNG with data is well above 10 kB; an empty or failed figure is a few kB
-    assert path.exists() and path.stat().st_size > 10_000
+    assert path.stat().st_size > 10_000
+    check_png(path)
     assert len(data_axes(fig)) == expected_axes(name, len(cases))
     footer = "".join(" ".join(t.get_text() for t in fig.texts).split())
     for c in cases:
         assert "".join(c["provenance"].split()) in footer   # the footer wraps at spaces
     assert "rung:demo" in footer
     assert "not available" not in all_texts(fig)
+
+
+def test_flow_rate_and_orifice_figures_plot_the_tables(cases, rendered, assert_plotted):
+    """Figure 2 shows each case's W_f (and W_r) of its flow table against t/t_d; figure 4 the
+    volume fraction of the orifice row of its field table against r: nothing lost or moved."""
+    fig2 = rendered["fig02_flow_rate"][0]
+    fig4 = rendered["fig04_phi_orifice"][0]
+    for case in cases:
+        s, flow = case["scalars"], case["flow"]
+        t_d = np.sqrt(2 * s["r_b"] / s["gravity"])
+        assert_plotted(fig2.axes[0], flow["t"] / t_d, flow["W_f"])
+        assert_plotted(fig2.axes[0], flow["t"] / t_d, flow["W_r"])
+        orifice = case["fields"][case["fields"]["z"] == 0.0].sort_values("r")  # the node row at z = 0
+        assert_plotted(fig4.axes[0], orifice["r"], orifice["phi"])
 
 
 def test_demo_rung_is_flagged_in_red(rendered):
@@ -163,15 +178,15 @@ def test_sqrt_reference_is_labelled(rendered):
 
 
 @pytest.mark.parametrize("name", list(EXPECTED_AXES))
-def test_empty_cases(tmp_path, name):
+def test_empty_cases(tmp_path, check_png, name):
     path = tmp_path / f"{name}.png"
     fig = sp.SILO_FIGURES[name]([], path)
-    assert path.exists() and path.stat().st_size > 0
+    check_png(path)
     assert "no averaged case" in all_texts(fig)
 
 
 @pytest.mark.parametrize("name", list(EXPECTED_AXES))
-def test_missing_tables(cases, tmp_path, name):
+def test_missing_tables(cases, tmp_path, check_png, name):
     bare = dict(label="bare", provenance="rung smoke · bare", scalars=dict(rung="smoke"))  # no tables at all
     nan = dict(cases[1], provenance="rung smoke · all NaN", scalars={k: np.nan for k in cases[1]["scalars"]},
                fields=pd.DataFrame(np.nan, index=cases[1]["fields"].index, columns=cases[1]["fields"].columns),
@@ -179,7 +194,7 @@ def test_missing_tables(cases, tmp_path, name):
     path = tmp_path / f"{name}.png"
     sample = [bare, nan, cases[0]]
     fig = sp.SILO_FIGURES[name](sample, path)
-    assert path.exists() and path.stat().st_size > 0
+    check_png(path)
     assert len(data_axes(fig)) == expected_axes(name, len(sample))
     texts = " ".join(t.get_text() for t in fig.texts)
     assert "rung smoke · bare" in texts and "smoke" in texts

@@ -94,10 +94,11 @@ def cmd_check_config(args) -> int:
     return 0
 
 
-def _check_out(out: str, record: dict, force: bool) -> Path:
+def _check_out(out: str, record, force: bool) -> Path:
     """Refuse an output directory that would lose a user's files: ``''``, a file, a non-empty
     directory granflow did not render into, or one holding a run of other parameters (unless
-    ``--force``); and one that cannot be written."""
+    ``--force``); and one that cannot be written. ``record()`` gives the new parameter record
+    (computed only when a run is there to compare with)."""
     if not out.strip():
         raise UsageError("--out '' is not allowed: allowed a directory path (it is created if missing)")
     path = Path(out)
@@ -113,7 +114,7 @@ def _check_out(out: str, record: dict, force: bool) -> Path:
         if not ours:
             raise UsageError(f"--out {out} is not empty and was not rendered by granflow (no params.json of a "
                              f"case): allowed a new or empty directory; pass --force to write into it anyway")
-        if (path / "run").exists() and json.loads(json.dumps(record, sort_keys=True)) != old:
+        if (path / "run").exists() and json.loads(json.dumps(record(), sort_keys=True)) != old:
             raise UsageError(f"--out {out} holds a run of other parameters (run/ and a different params.json): "
                              f"rendering would make it resume with new decks; allowed another directory, "
                              f"or --force")
@@ -134,8 +135,7 @@ def cmd_render(args) -> int:
     from .config import check_rung
     check_rung(scene, args.rung)
     check_size(args.scene, scene, args.rung, None, _limits(args), str(scene_file), f"{args.scene} at rung {args.rung}")
-    _, context = scene_parameters(scene, args.rung)
-    _check_out(args.out, context["record"], args.force)
+    _check_out(args.out, lambda: scene_parameters(scene, args.rung)[1]["record"], args.force)
     record = render_case(scene, args.rung, args.out)
     prm = record["parameters"]
     written = {p.stem for p in Path(args.out).glob("*.lmp")}

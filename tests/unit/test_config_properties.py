@@ -56,8 +56,8 @@ NONFINITE = (math.nan, math.inf, -math.inf)
 HUGE = (1e300, 10**30, -1e300, -10**30, 1.7976931348623157e308)
 #: an integer no double can hold (``math.isfinite`` raises OverflowError on it)
 BEYOND_FLOAT = 10**400
-#: for tests over a list of cases with xfail marks: raise the first failure as it is (the
-#: marks name its exception type), without shrinking a list that has no simpler case
+#: for tests over a fixed list of cases: raise the first failure as it is, without shrinking
+#: a list that has no simpler case
 FIRST_FAILURE = {"report_multiple_bugs": False, "phases": (Phase.explicit, Phase.generate)}
 
 
@@ -633,21 +633,10 @@ def in_range_extremes(key: NumericKey) -> list:
     return [low, high] + ([1e-12] if lo_x and lo == 0 else [])
 
 
-#: crashes these properties found, each fixed (schema minimums for the time step, density and
-#: V_c; finite check on floats only; number literals of at most 64 characters; post-processing
-#: knobs validated against their scene key): an entry here marks its case xfail(strict)
-KNOWN_CRASHES: dict[str, str] = {}
-
-
+# The crashes these properties found (tiny time steps, densities and V_c; ints beyond a double;
+# over-long literals; unchecked post-processing knobs) are fixed: every in-range edge must pass.
 def _in_range_params() -> list:
-    out = []
-    for name, keys in DECLARATIONS.items():
-        if keys[0].kind != "scene":
-            continue
-        marks = ([pytest.mark.xfail(strict=True, raises=(ZeroDivisionError, OverflowError),
-                                    reason=KNOWN_CRASHES[name])] if name in KNOWN_CRASHES else [])
-        out.append(pytest.param(keys, id=name, marks=marks))
-    return out
+    return [pytest.param(keys, id=name) for name, keys in DECLARATIONS.items() if keys[0].kind == "scene"]
 
 
 @pytest.mark.parametrize("keys", _in_range_params())

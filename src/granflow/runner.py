@@ -61,8 +61,8 @@ GUARDS = {
 
 
 #: what LAMMPS's "Lost atoms" means in a walled granular box
-LOST_ATOMS = ("lost atoms: a particle left the box through a wall, pushed beyond its own radius "
-              "(contacts too soft for the impact speeds; a shorter t_c or a lower drop would hold it)")
+LOST_ATOMS = ("lost atoms: a particle left the box, through a wall it was pushed beyond its own radius "
+              "(contacts too soft for the impact speeds) or past a fixed box face it was thrown through")
 
 
 def dangerous_builds(log_text: str) -> int:

@@ -214,7 +214,7 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("cos_theta", round(math.cos(geo["theta"]), 12), "cos(theta)"),
         Param("z_base0", round(geo["z_base0"], 9), "base height at x = 0: W tan(theta), m"),
         Param("z_bottom", round(geo["z_bottom"], 9), "box bottom, m"),
-        Param("z_top", round(geo["z_top"], 9), "box top, above the feed region, m"),
+        Param("z_top", round(geo["z_top"], 9), "lowest box top, above the feed region (the top shrink-wraps above it), m"),
         Param("feed_xlo", round(reg["x_lo"], 9), "feed region, inset by the largest radius from the walls, m"),
         Param("feed_xhi", round(reg["x_hi"], 9), "feed region x upper bound, m"),
         Param("feed_ylo", round(reg["y_lo"], 9), "feed region y lower bound, m"),

@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 
 from . import registry
+from .progress import SegmentProgress, Target, progress_interval
 from .provenance import git_state
 
 
@@ -302,6 +303,12 @@ class CaseRunner:
         self.record = json.loads((self.case_dir / "params.json").read_text())
         # the scene's hooks (flow verdict, early stop); a bare record gets the defaults
         self.scene = registry.get(self.record["scene"]) if "scene" in self.record else registry.Scene()
+        #: seconds between progress lines while a segment runs (GRANFLOW_PROGRESS_SECONDS; refused if bad)
+        self.progress_seconds = progress_interval()
+        init = self.case_dir / "init.lmp"
+        units = re.search(r"^units\s+(\w+)", init.read_text(), re.M) if init.exists() else None
+        self.time_unit = {"si": "s", "lj": "tau", "cgs": "s", "metal": "ps", "real": "fs"}.get(
+            units.group(1) if units else "", "time units")
 
     def _guard_stale(self) -> None:
         """Keep finished results of other parameters: move an old run aside, never overwrite it."""
@@ -313,6 +320,16 @@ class CaseRunner:
             log(f"parameters changed since the last run: kept the old run as {aside.name}, starting afresh")
         self.run_dir.mkdir(parents=True, exist_ok=True)
         stamp.write_text(current)
+
+    def _target(self, name: str) -> Target:
+        """Where segment ``name`` (``flow_003``, ``average_001``, ``init``) sits, for its progress lines."""
+        rec = self.record
+        stage, _, index = name.rpartition("_")
+        count = {"flow": rec.get("n_flow_segments", 0), "average": rec.get("n_average_segments", 0)}.get(stage, 0)
+        n_steps = int(rec.get("parameters", {}).get("n_segment", 0)) if count else 0
+        return Target(stage=stage or name, index=int(index) if index.isdigit() and count else 0, count=count,
+                      n_steps=n_steps, dt=float(rec.get("dt", 0.0)), unit=self.time_unit,
+                      t_segment=float(rec.get("t_segment", 0.0)))
 
     # -- one LAMMPS invocation ---------------------------------------------------
     def _lammps(self, deck: str, name: str, variables: dict[str, str]) -> Path:
@@ -328,8 +345,22 @@ class CaseRunner:
         # locally), which every rank would inherit. Measured on 2 cores, smoke channel on 2
         # ranks: 47 s with 1 thread per rank, 157 s with 2 (same numbers: no /omp styles run).
         env = dict(os.environ, OMP_NUM_THREADS="1")
+        progress = SegmentProgress(name, log_path, self._target(name), self.progress_seconds)
         with open(screen_path, "w") as screen:
-            proc = subprocess.run(cmd, cwd=self.run_dir, stdout=screen, stderr=subprocess.STDOUT, env=env)
+            proc = subprocess.Popen(cmd, cwd=self.run_dir, stdout=screen, stderr=subprocess.STDOUT, env=env)
+            try:
+                while True:
+                    try:
+                        proc.wait(timeout=min(self.progress_seconds, 2.0) if self.progress_seconds > 0 else None)
+                        break
+                    except subprocess.TimeoutExpired:
+                        line = progress.update()
+                        if line:
+                            log(line)
+            finally:
+                if proc.poll() is None:  # interrupted (Ctrl-C, a signal to the runner): stop LAMMPS too
+                    proc.kill()
+                    proc.wait()
         self._record_usage(name, before, time.time() - t0)
         text = (log_path.read_text(errors="replace") if log_path.exists() else "") + "\n" + \
             screen_path.read_text(errors="replace")

@@ -17,15 +17,20 @@ include: "workflows/rules/scenes.smk"
 include: "workflows/rules/cost.smk"
 include: "workflows/rules/provenance.smk"
 include: "workflows/rules/validation.smk"
+include: "workflows/rules/overview.smk"
 
 
 check_command_line_targets()
 
 
+report: overview_page()
+
+
 rule all:
-    """Every enabled scene's table, figures and provenance (scenes are found through granflow's registry),
-    and the committed validation record's tables for the report."""
+    """The report's front page, every enabled scene's table, figures and provenance (scenes are found
+    through granflow's registry), and the committed validation record's tables for the report."""
     input:
+        overview_targets(),
         scene_targets(),
         provenance_targets(),
         validation_report_targets(),

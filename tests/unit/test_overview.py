@@ -1,0 +1,83 @@
+"""The report's front page (granflow.overview): cases, statuses, CPU-hours, checks against the papers."""
+import json
+import subprocess
+import sys
+
+import jinja2
+from docutils.core import publish_parts
+
+from granflow.overview import overview_rst, rst_text, write_overview
+
+SUMMARIES = [
+    {"scene": "alpha", "rung": "demo", "paper": "Doe et al. (2020)",
+     "cases": [{"dir": "W~20/phi~0.58", "status": "steady", "reason": "drift 0.7 % {{ not a template }}",
+                "particles": 2161, "cpu_hours": 0.25},
+               {"dir": "W~20/phi~0.6", "status": "no_steady_state", "reason": "drift *6.5 %* over\nthe last 100",
+                "particles": 2161, "cpu_hours": 0.5}],
+     "checks": [{"quantity": "u_max/u_slip", "paper": "1.37–1.40", "source": "fig. 5(c)", "ours": 1.19706,
+                 "error": 0.00634, "case": "W~20/phi~0.58", "unit": "", "verdict": "differs by -13 %"}]},
+    {"scene": "beta", "rung": "demo", "paper": "Roe (2013)",
+     "cases": [{"dir": "R~4.5", "status": "completed", "reason": "fixed schedule", "particles": 8087,
+                "cpu_hours": 1.125},
+               {"dir": "R~5.5", "status": "unstable", "reason": "lost atoms", "particles": None,
+                "cpu_hours": None}],
+     "checks": []},
+]
+
+
+def render(text):
+    """What Snakemake does with the page: Jinja, then docutils; any docutils warning fails."""
+    html = publish_parts(jinja2.Environment().from_string(text).render(), writer="html",
+                         settings_overrides={"halt_level": 2, "report_level": 2})["html_body"]
+    return html
+
+
+def test_page_lists_every_case_with_status_and_the_cpu_hours():
+    text = overview_rst(SUMMARIES, "demo")
+    assert text.startswith("{% raw %}\n") and text.rstrip().endswith("{% endraw %}")
+    # 0.25 + 0.5 + 1.125 (a case without CPU-hours adds nothing)
+    assert "2 scene(s), 4 case(s), 1.88 CPU-hours" in text
+    assert "How the cases ended: 1 completed, 1 no\\_steady\\_state, 1 steady, 1 unstable." in text
+    html = render(text)
+    for cell in ("W~20/phi~0.58", "no_steady_state", "8,087", "1.12", "0.50", "lost atoms", "R~5.5"):
+        assert f"<p>{cell}</p>" in html or f">{cell}<" in html, cell
+    # markup and template characters arrive as text
+    assert "drift *6.5 %* over the last 100" in html
+    assert "{{ not a template }}" in html
+    assert "rung demo" in html and "is not a verdict on granflow" in html
+
+
+def test_checks_sit_beside_the_papers_values():
+    html = render(overview_rst(SUMMARIES, "demo"))
+    assert "1.1971 ± 0.0063" in html                     # two significant digits of the error
+    assert "1.37–1.40 (fig. 5(c))" in html
+    assert "differs by -13 %" in html
+    assert "beta: no headline number could be measured in this campaign." in html
+    assert "alpha (rung demo): Doe et al. (2020)" in html
+
+
+def test_the_validation_rung_has_no_caveat(tmp_path):
+    paths = []
+    for s in SUMMARIES:
+        p = tmp_path / s["scene"] / "summary.json"
+        p.parent.mkdir()
+        p.write_text(json.dumps(dict(s, rung="validation")))
+        paths.append(p)
+    out = tmp_path / "report" / "overview_validation.rst"
+    text = write_overview(paths, "validation", out)
+    assert out.read_text() == text
+    assert "is not a verdict" not in text and "granflow campaign at rung validation" in render(text)
+
+
+def test_rst_cells_escape_inline_markup():
+    assert rst_text("a_b *c* `d` |e|") == "a\\_b \\*c\\* \\`d\\` \\|e\\|"
+    assert rst_text("") == "–" and rst_text("two\n lines") == "two lines"
+
+
+def test_the_default_campaign_builds_the_front_page(tmp_path):
+    """`rule all` asks for the page (dry run of the default campaign into an empty results dir)."""
+    out = subprocess.run([sys.executable, "-m", "snakemake", "-n", "--cores", "1", "--config",
+                          f"results_dir={tmp_path}"], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:] + out.stdout[-2000:]
+    assert f"{tmp_path}/report/overview_demo.rst" in out.stdout
+    assert "rule overview:" in out.stdout

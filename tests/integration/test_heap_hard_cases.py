@@ -19,7 +19,8 @@ def test_size_ratio_3_at_the_highest_feed_rate(heap_scene, tmp_path, smoke_varia
     run stopped on lost atoms, so the top shrink-wraps and they fall back."""
     # a wider gap and feed zone, entered at rest: enough particles per insertion that the
     # few large ones of a 1/3 mm mix still resolve the rate
-    scene = smoke_variant(heap_scene, steady_depth=1.0, t_segment=0.15, t_average=0.15, dump_interval=0.05,
+    # (0.3 s of filling: the first impacts on the bare base are the hardest)
+    scene = smoke_variant(heap_scene, steady_depth=0.5, t_segment=0.1, t_average=0.05, dump_interval=0.025,
                   T=0.012, feed_width=0.02, feed_height=0.04, feed_speed=0.0)
     # the refusal of an impossible rate names the largest feasible one
     with pytest.raises(PreflightError, match=r"largest feasible rate ([0-9.e-]+) kg/s") as exc:

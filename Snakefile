@@ -18,6 +18,7 @@ include: "workflows/rules/cost.smk"
 include: "workflows/rules/provenance.smk"
 include: "workflows/rules/validation.smk"
 include: "workflows/rules/overview.smk"
+include: "workflows/rules/snapshots.smk"
 
 
 check_command_line_targets()
@@ -32,6 +33,7 @@ rule all:
     input:
         overview_targets(),
         scene_targets(),
+        snapshot_targets(),
         provenance_targets(),
         validation_report_targets(),
 

@@ -88,6 +88,9 @@ def skiprun(lmp):
         "average": ["-var", "restart_in", "init.restart", "-var", "restart_out", "avg.restart",
                     "-var", "dump_file", "dump.bin", "-var", "contacts_file", "contacts.dump"],
     }
+    # as the runner does (granflow.runner.Case._segment): decks that write a snapshot name it so
+    for stage, args in variables.items():
+        args += ["-var", "snapshot_file", f"snapshot_{stage}.jpg"]
 
     def run(case_dir: Path, stages, extra: dict | None = None, edit=None) -> dict:
         run_dir = case_dir / "run"

@@ -53,9 +53,11 @@ def _put(tree: dict, dotted: str, value) -> None:
 def base_scene(scene: dict, study: dict, source: str) -> dict:
     """The scene file with the study's ``set`` changes applied, validated like the file.
 
-    The base run averages for the longest ``t_average`` of the knob list.
+    The base run averages for the longest ``t_average`` of the knob list. The study writes no
+    particle snapshots (effect ``snapshots``): its runs are timed, and images are not read.
     """
     out = copy.deepcopy(scene)
+    out["effects"]["snapshots"] = []
     rung = study["base_rung"]
     if rung not in out["rungs"]:
         raise ConfigError(f"{source}.base_rung = {rung!r} is not allowed: allowed one of "

@@ -154,6 +154,9 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     """
     params, context = scene_parameters(scene, rung_name, case)
     record = context.pop("record")
+    view = registry.get(scene["scene"]).snapshots_at(scene, rung_name)
+    context["snapshot"] = view
+    record["snapshots"] = None if view is None else {"color": view.color, "stages": list(view.stages)}
     stages = context.pop("stages", STAGES)
     data_files = context.pop("data_files", {})
     outdir = Path(outdir)

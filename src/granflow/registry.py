@@ -88,6 +88,39 @@ class Knob:
 
 
 @dataclass(frozen=True)
+class SnapshotView:
+    """How a scene's particle snapshots look: LAMMPS's own ``write_dump ... image`` (JPEG) at
+    the end of every segment of ``stages``, for the report (the effect ``snapshots`` lists
+    the rungs that write them).
+
+    ``color`` is ``type`` (one colour per species) or ``speed`` (blue = slowest to red =
+    fastest particle of that frame); ``view`` is LAMMPS's ``view theta phi`` in degrees, ``up`` its up vector;
+    ``center`` the look-at point as fractions of the box; ``size`` pixels; ``zoom`` LAMMPS's;
+    ``slab_y`` (a fraction of the box's width along y, or None for every particle) shows only the
+    particles within that distance of the box's mid-plane y = const, a cut through a 3D bed.
+    """
+
+    COLORS: ClassVar[tuple[str, ...]] = ("type", "speed")
+
+    color: str = "type"
+    view: tuple[float, float] = (90.0, -90.0)
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    center: tuple[float, float, float] = (0.5, 0.5, 0.5)
+    size: tuple[int, int] = (900, 500)
+    zoom: float = 1.5
+    stages: tuple[str, ...] = ("init", "flow", "average")
+    slab_y: float | None = None
+
+    def __post_init__(self):
+        if self.color not in self.COLORS:
+            raise ValueError(f"SnapshotView.color = {self.color!r}: allowed {', '.join(self.COLORS)}")
+        numbers = (*self.view, *self.up, *self.center, *self.size, self.zoom,
+                   *(() if self.slab_y is None else (self.slab_y,)))
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in numbers):
+            raise ValueError(f"SnapshotView numbers must be finite: {numbers}")
+
+
+@dataclass(frozen=True)
 class Stage:
     """One stage of a case (init, flow, average): its time steps, atom-steps and LAMMPS invocations."""
 
@@ -162,6 +195,8 @@ class Scene:
     knobs: ClassVar[dict[str, Knob]] = {}
     #: statuses of :meth:`flow_verdict` that end the flow stage at once (besides steady and jammed)
     stop_statuses: ClassVar[tuple[str, ...]] = ()
+    #: how its particle snapshots look (None: the scene writes none, whatever its effects say)
+    snapshot: ClassVar[SnapshotView | None] = None
 
     # -- where its files are ----------------------------------------------------------
     @property
@@ -180,6 +215,18 @@ class Scene:
 
     def table_caption_text(self) -> str:
         return self.table_caption or self.captions().get("table", "")
+
+    # -- particle snapshots -------------------------------------------------------------
+    #: rungs that write snapshots when the scene file's effects do not say (the default campaign's)
+    SNAPSHOT_RUNGS: ClassVar[tuple[str, ...]] = ("demo",)
+
+    def snapshots_at(self, scene: dict, rung: str) -> SnapshotView | None:
+        """The scene's :class:`SnapshotView` if its effect ``snapshots`` (a list of rungs,
+        default ``SNAPSHOT_RUNGS``) names ``rung``, else None: no image is written."""
+        if self.snapshot is None:
+            return None
+        rungs = scene.get("effects", {}).get("snapshots", self.SNAPSHOT_RUNGS)
+        return self.snapshot if rung in rungs else None
 
     # -- configuration ------------------------------------------------------------------
     def check(self, scene: dict, source: str) -> None:
@@ -370,4 +417,4 @@ def finite(value) -> float:
     return value if math.isfinite(value) else float("nan")
 
 
-__all__ = ["Scene", "SweepAxis", "FigureSpec", "Knob", "Stage", "Workload", "scenes", "names", "get", "finite"]
+__all__ = ["Scene", "SweepAxis", "FigureSpec", "Knob", "Stage", "Workload", "SnapshotView", "scenes", "names", "get", "finite"]

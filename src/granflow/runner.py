@@ -405,7 +405,9 @@ class CaseRunner:
             return out
         tmp = self.run_dir / f"{name}.restart.partial"
         index = name.rsplit("_", 1)[-1]
-        variables = {"restart_out": tmp.name, "segment": int(index) if index.isdigit() else 0}
+        variables = {"restart_out": tmp.name, "segment": int(index) if index.isdigit() else 0,
+                     # used by decks that write a particle snapshot (effect snapshots)
+                     "snapshot_file": f"snapshot_{name}.jpg"}
         if restart_in is not None:
             variables["restart_in"] = restart_in.name
         variables.update(extra or {})

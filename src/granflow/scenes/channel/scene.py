@@ -9,7 +9,7 @@ import pandas as pd
 
 import granflow.scenes.channel.figures as figures
 from granflow.config import require
-from granflow.registry import FigureSpec, Knob, Scene, Stage, SweepAxis
+from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, Stage, SweepAxis
 
 from .parameters import channel_parameters
 
@@ -32,6 +32,8 @@ def _or_placeholder(draw):
 
 class ChannelScene(Scene):
     name = "channel"
+    #: seen along the periodic depth z: walls left and right, flow downwards; colour by speed
+    snapshot = SnapshotView(color="speed", view=(0.0, 0.0), up=(0.0, 1.0, 0.0), size=(500, 900), zoom=1.0)
     summary = "periodic vertical channel between two flat frictional walls (Debnath, Kesava Rao & Kumaran 2022)"
     paper = "channel_debnath2022.md"
     sweep = (SweepAxis("W", "W"), SweepAxis("phi_mean", "phi"))

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from granflow.config import ConfigError
-from granflow.registry import FigureSpec, Knob, Scene, SweepAxis, finite
+from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, SweepAxis, finite
 
 from . import analysis, figures
 from .parameters import chute_parameters
@@ -27,6 +27,8 @@ class ChuteScene(Scene):
     """The chute scene declaration (see the module docstring)."""
 
     name = "chute"
+    #: seen from the side (-y): the flow goes left to right over the rough base; colour by speed
+    snapshot = SnapshotView(color="speed", view=(90.0, -90.0), center=(0.5, 0.5, 0.24), size=(500, 700), zoom=2.2)
     summary = "steady flow down a rough inclined plane: stress ratio tan(theta), weight, Bagnold profile, regimes"
     paper = "Silbert, Ertas, Grest, Halsey, Levine & Plimpton (2001), Phys. Rev. E 64, 051302"
     sweep = (SweepAxis("theta_deg", "theta"),)

@@ -8,7 +8,7 @@ from pathlib import Path
 import granflow.scenes.heap.figures as figures
 from granflow.config import ConfigError, require
 from granflow.preflight import PreflightError
-from granflow.registry import FigureSpec, Knob, Scene, Stage, SweepAxis
+from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, Stage, SweepAxis
 
 from .parameters import feed_plan, heap_parameters
 
@@ -18,6 +18,9 @@ TABLES = ("per_x", "profile", "collapse", "surface", "alpha_t", "rise_by_x", "ph
 
 class HeapScene(Scene):
     name = "heap"
+    #: seen through the front side wall (-y): feed on the left, end wall on the right; colour by
+    #: species; no image of the init stage (the box is still empty)
+    snapshot = SnapshotView(color="type", view=(90.0, -90.0), size=(900, 500), zoom=2.2, stages=("flow", "average"))
     summary = "quasi-2D bounded heap filled from one end, inclined base and end wall (Fan et al. 2013)"
     paper = "heap_fan2013.md"
     # directories carry the feed rate in g/s: mdot~33 for 0.033 kg/s

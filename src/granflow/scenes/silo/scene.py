@@ -10,7 +10,7 @@ import pandas as pd
 
 import granflow.scenes.silo.figures as figures
 from granflow.config import require
-from granflow.registry import FigureSpec, Knob, Scene, SweepAxis
+from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, SweepAxis
 
 from .parameters import discharge_verdict, gas_count, rim_ring, silo_parameters, species
 
@@ -20,6 +20,10 @@ TABLES = ("flow", "fields", "contact")
 
 class SiloScene(Scene):
     name = "silo"
+    #: a cut through the axis (particles within 8 % of the diameter of the plane y = 0), seen from
+    #: -y: the converging flow above the orifice at the bottom; colour by speed
+    snapshot = SnapshotView(color="speed", view=(90.0, -90.0), center=(0.5, 0.5, 0.38), size=(600, 900), zoom=2.4,
+                            slab_y=0.08)
     summary = "3D flat-bottomed cylindrical silo discharging through a circular orifice (Rubio-Largo et al. 2016)"
     paper = "silo_rubiolargo2016.md"
     sweep = (SweepAxis("R", "R"),)

@@ -159,3 +159,24 @@ def test_bidisperse_case_tags_species_and_reports_c_s(heap_campaign):
     assert len(deposit) and deposit["c_s"].dropna().between(0, 1).all()
     mono = pd.read_csv(heap_campaign["case"]["mono1.5"] / "analysis" / "deposit.csv")
     assert mono.empty  # c_s only where there are two species
+
+
+def test_the_analysis_reads_each_dump_once(heap_campaign, monkeypatch):
+    """Issue 18: a dump is read once per analysis (the surface fit and the moving-frame kinematics share
+    the frames), and reading it once gives the table's numbers."""
+    import postproc.dump as dump
+    from granflow import registry
+
+    reads = []
+    original = dump.read_dump
+
+    def counting(path, *args, **kwargs):
+        reads.append(Path(path).name)
+        return original(path, *args, **kwargs)
+
+    monkeypatch.setattr(dump, "read_dump", counting)
+    case = heap_campaign["case"]["mono1.5"]
+    _, scalars = registry.get("heap").analyse(case)
+    status = json.loads((case / "run" / "status.json").read_text())
+    assert sorted(reads) == sorted(status["dumps"]) and len(status["dumps"]) >= 1
+    assert scalars["alpha_deg"] == pytest.approx(heap_campaign["table"].loc["mono1.5", "alpha_deg"], rel=1e-9)

@@ -122,7 +122,7 @@ class ChuteScene(Scene):
         if steady.status == "jammed" or (np.isfinite(steady.mean) and abs(steady.mean) < proto["arrest_speed"]
                                          and steady.status != "steady"):
             return dataclasses.replace(steady, status="arrested",
-                                       reason=f"the bed stopped: {steady.reason}")
+                                       reason=f"the bed stopped, the paper's arrested regime (below theta_stop(h), about 20 deg at H = 20-40 d): {steady.reason}")
         if steady.status != "no_steady_state" or len(thermo) < 3:
             return steady
         t, u = thermo["Time"].to_numpy(float), thermo["v_ucm"].to_numpy(float)
@@ -135,7 +135,8 @@ class ChuteScene(Scene):
         scatter = np.std(u - (slope * t + intercept), ddof=2) / np.mean(u)
         if rise > proto["steady_rel_tol"] and scatter < proto["steady_fluct_tol"]:
             return dataclasses.replace(steady, status="accelerating",
-                                       reason=f"u_cm still rising: +{rise:.1%} of its mean over the last "
+                                       reason=f"u_cm still rising, the paper's accelerating regime (above about 26 deg at H = 20-40 d): "
+                                              f"+{rise:.1%} of its mean over the last "
                                               f"{t[-1] - t[0]:.4g} time units, scatter about the trend {scatter:.1%}")
         return steady
 

@@ -139,8 +139,14 @@ def time_step(rung: dict, model: ContactModel) -> float:
 
 
 def scene_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tuple[list[Param], dict]:
-    """Deck numbers and template context of any scene (its registered declaration derives them)."""
-    return registry.get(scene["scene"]).parameters(scene, rung_name, case)
+    """Deck numbers and template context of any scene (its registered declaration derives them),
+    with the scene's particle snapshot view if its effect ``snapshots`` names the rung."""
+    declared = registry.get(scene["scene"])
+    params, context = declared.parameters(scene, rung_name, case)
+    view = declared.snapshots_at(scene, rung_name)
+    context["snapshot"] = view
+    context["record"]["snapshots"] = None if view is None else {"color": view.color, "stages": list(view.stages)}
+    return params, context
 
 
 def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | None = None) -> dict:
@@ -154,9 +160,6 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     """
     params, context = scene_parameters(scene, rung_name, case)
     record = context.pop("record")
-    view = registry.get(scene["scene"]).snapshots_at(scene, rung_name)
-    context["snapshot"] = view
-    record["snapshots"] = None if view is None else {"color": view.color, "stages": list(view.stages)}
     stages = context.pop("stages", STAGES)
     data_files = context.pop("data_files", {})
     outdir = Path(outdir)

@@ -21,18 +21,24 @@ help:
 	@echo "              write the committed record validation/<scene>/ and validation/README.md"
 	@echo "make bench  - run the benchmarks in bench/ (by hand; results are recorded, not asserted)"
 
+# the install's wall seconds go to $(VENV)/.install_seconds (read by granflow.timing)
 $(STAMP): requirements.txt pyproject.toml
+	mkdir -p $(VENV) && date +%s > $(VENV)/.install_started
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -r requirements.txt
 	$(BIN)/python -m pip install --quiet --no-deps -e .
 	touch $(STAMP)
+	echo $$(( $$(date +%s) - $$(cat $(VENV)/.install_started) )) > $(VENV)/.install_seconds
 
 venv: $(STAMP)
 
+# the wall seconds of both calls go to results/timing/ (read by granflow.timing)
 demo: $(STAMP)
-	$(BIN)/snakemake --cores $(CORES)
-	$(BIN)/snakemake --cores $(CORES) --report report.html
+	start=$$(date +%s) && $(BIN)/snakemake --cores $(CORES) && mkdir -p results/timing \
+		&& echo $$(( $$(date +%s) - $$start )) > results/timing/workflow_seconds
+	start=$$(date +%s) && $(BIN)/snakemake --cores $(CORES) --report report.html \
+		&& echo $$(( $$(date +%s) - $$start )) > results/timing/report_seconds
 
 test: $(STAMP)
 	PATH="$(CURDIR)/$(BIN):$$PATH" $(BIN)/python -m pytest -q

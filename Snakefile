@@ -19,6 +19,7 @@ include: "workflows/rules/provenance.smk"
 include: "workflows/rules/validation.smk"
 include: "workflows/rules/overview.smk"
 include: "workflows/rules/snapshots.smk"
+include: "workflows/rules/timing.smk"
 
 
 check_command_line_targets()
@@ -36,6 +37,7 @@ rule all:
         snapshot_targets(),
         provenance_targets(),
         validation_report_targets(),
+        timing_targets(),
 
 
 rule cost:

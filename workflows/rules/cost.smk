@@ -76,6 +76,8 @@ rule cost_render:
     params:
         scene=cost_run_scene_json,
         rung=cost_rung,
+    benchmark:
+        COST_RUN + "/benchmarks/cost_render.tsv"
     log:
         COST_RUN + "/logs/render.log",
     script:
@@ -125,6 +127,8 @@ rule cost_collect:
         summary=COST + "/{scene}/summary.json",
     params:
         study=cost_study_json,
+    benchmark:
+        COST + "/{scene}/benchmarks/cost_collect.tsv"
     log:
         COST + "/{scene}/logs/collect.log",
     script:

@@ -26,6 +26,8 @@ rule overview:
         page=OVERVIEW,
     params:
         rung=RUNG,
+    benchmark:
+        f"{RESULTS}/benchmarks/{RUNG}/overview.tsv"
     log:
         f"{RESULTS}/logs/overview_{RUNG}.log",
     script:

@@ -20,6 +20,8 @@ rule provenance:
         params=rules.render.output.params,
     output:
         provenance=CASE + "/provenance.json",
+    benchmark:
+        CASE + "/benchmarks/provenance.tsv"
     log:
         CASE + "/logs/provenance.log",
     script:
@@ -34,6 +36,8 @@ rule provenance_table:
         # table and figures (no subcategory) under "Other"
         table=report(SCENE_DIR + "/provenance.csv", caption="../report/provenance.rst",
                      category="provenance", subcategory="{scene}"),
+    benchmark:
+        SCENE_DIR + "/benchmarks/provenance_table.tsv"
     log:
         SCENE_DIR + "/logs/provenance.log",
     script:

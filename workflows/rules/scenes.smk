@@ -43,6 +43,8 @@ rule render:
     params:
         scene=scene_json,
         rung=RUNG,
+    benchmark:
+        CASE + "/benchmarks/render.tsv"
     log:
         CASE + "/logs/render.log",
     script:
@@ -60,6 +62,8 @@ rule simulate:
         tasks=simulate_tasks,
         mem_mb=simulate_mem_mb,
         runtime=simulate_runtime,
+    benchmark:
+        CASE + "/benchmarks/simulate.tsv"
     log:
         CASE + "/logs/simulate.log",
     script:
@@ -74,6 +78,8 @@ rule analyse:
     output:
         analysis=directory(CASE + "/analysis"),
     threads: analyse_threads
+    benchmark:
+        CASE + "/benchmarks/analyse.tsv"
     log:
         CASE + "/logs/analyse.log",
     script:
@@ -87,6 +93,8 @@ rule table:
         table=report(SCENE_DIR + "/table.csv", caption="../report/table.rst", category="{scene}"),
     params:
         caption=table_caption,
+    benchmark:
+        SCENE_DIR + "/benchmarks/table.tsv"
     log:
         SCENE_DIR + "/logs/table.log",
     script:
@@ -100,6 +108,8 @@ rule figure:
         figure=report(SCENE_DIR + "/figures/{figure}.png", caption="../report/figure.rst", category="{scene}"),
     params:
         caption=figure_caption,
+    benchmark:
+        SCENE_DIR + "/benchmarks/figure_{figure}.tsv"
     log:
         SCENE_DIR + "/logs/{figure}.log",
     script:

@@ -20,6 +20,8 @@ rule snapshots:
     output:
         png=report(CASE + "/snapshots.png", caption="../report/snapshots.rst", category="{scene}",
                    subcategory="particle snapshots", labels={"case": "{case}"}),
+    benchmark:
+        CASE + "/benchmarks/snapshots.tsv"
     log:
         CASE + "/logs/snapshots.log",
     script:

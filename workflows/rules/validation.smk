@@ -35,6 +35,8 @@ rule validation_record:
         cases=scene_case_dirs,
         scene_dir=SCENE_DIR,
         rung=RUNG,
+    benchmark:
+        SCENE_DIR + "/benchmarks/validation_record.tsv"
     log:
         SCENE_DIR + "/logs/validation.log",
     script:
@@ -48,6 +50,8 @@ rule validation_readme:
         summaries=[f"{VALIDATION_DIR}/{name}/summary.json" for name in SCENES if scene_cases(name)],
     output:
         readme=VALIDATION_DIR + "/README.md",
+    benchmark:
+        f"{RESULTS}/benchmarks/{RUNG}/validation_readme.tsv"
     log:
         f"{RESULTS}/logs/validation_readme_{RUNG}.log",
     script:
@@ -77,5 +81,7 @@ rule validation_report:
                       category="validation", subcategory="{recorded}"),
     wildcard_constraints:
         recorded=r"[a-z_]+",
+    benchmark:
+        RESULTS + f"/benchmarks/{RUNG}/validation_report_{{recorded}}.tsv"
     shell:
         "cp {input.checks} {output.checks}"

@@ -21,6 +21,32 @@ and 2 threads and numpy (Gaussian.assign + one bincount per primitive, the
 reference); contact-frames/s for the contact stress (sigmac, pc) with w = r_b / 2
 (cutoff 2 r_b) on nodes every r_b / 2; and the largest relative difference
 between the two paths. Figures are recorded, not asserted.
+
+Each configuration's kernel is made once and shared by its passes (a new
+accumulator per pass), as in an analysis over many frames: the compiled path's
+tables are built once per kernel, on its first deposit, and that time is
+printed apart. The thread counts take turns pass by pass; "cores used" is the
+CPU time of the best pass over its wall time, which says whether the second
+thread found a free core.
+
+Measured 2026-11-24 (session 25), ``.venv/bin/python bench/bench_cg.py --frames 5``
+in a quiet window (load average 0.3 before, 0.9 after): nodes every 2 r_b,
+compiled 1.230 M particle-frames/s on 1 thread and 2.020 M on 2, numpy 0.038 M
+(32.6x, 53.5x); nodes every r_b (the silo's own spacing) 0.518 / 0.901 M, numpy
+0.008 M (61x, 107x); contacts 0.122 / 0.187 M contact-frames/s; agreement 1.1e-8
+(densities), 1.5e-8 (derived fields). The code before (git HEAD c9758b7), with
+this bench, right after: 1.082 / 1.955 M at 2 r_b, 0.396 / 0.736 M at r_b. With
+both cores busy with other work (load average 2.5-3.2): this code 1.241 / 1.310 M
+at 2 r_b; the code before, with its own bench, 0.962 / 0.551 M (its threads wait
+for each other at every frame). All runs: bench/results/bench_cg_session25.txt.
+
+Repeated in session 26 on a quiet machine (load average 0.6), same command, one run
+of each code right after the other: this code 0.647 / 1.158 M at r_b, 1.443 /
+2.523 M at 2 r_b, numpy 0.012 / 0.057 M; the code before 0.569 / 1.047 M at r_b,
+1.470 / 2.621 M at 2 r_b. So the issue's 1.5 M particle-frames/s on 2 cores is met
+at nodes every 2 r_b (by the code before as well), not at the silo's own r_b
+spacing, where each particle reaches about 250 nodes with ~40 values each:
+bench/results/bench_cg_session26.txt and bench_cg_session26_before.txt.
 """
 from __future__ import annotations
 
@@ -135,31 +161,51 @@ def grid(spacing: float):
     return np.arange(0.0, R_C + 0.5 * spacing, spacing), np.arange(0.0, HEIGHT + 0.5 * spacing, spacing)
 
 
-def bulk_accumulator(spacing: float, method: str) -> FieldAccumulator:
-    return FieldAccumulator(Gaussian.paper(2 * R_B, grid(spacing)), RZCoordinates(), fields=BULK_FIELDS,
-                            species=range(1, 8), method=method)
+def bulk_kernel(spacing: float) -> Gaussian:
+    return Gaussian.paper(2 * R_B, grid(spacing))
 
 
-def contact_accumulator(spacing: float, method: str) -> FieldAccumulator:
-    return FieldAccumulator(Gaussian.paper(R_B / 2, grid(spacing)), RZCoordinates(), fields=CONTACT_FIELDS,
-                            method=method)
+def contact_kernel(spacing: float) -> Gaussian:
+    return Gaussian.paper(R_B / 2, grid(spacing))
 
 
-def best_pass(make, frames, contacts, repeats: int):
-    """Best wall time of accumulating all frames, and the table of the last pass."""
-    best, table = np.inf, None
+def bulk_accumulator(kernel: Gaussian, method: str) -> FieldAccumulator:
+    return FieldAccumulator(kernel, RZCoordinates(), fields=BULK_FIELDS, species=range(1, 8), method=method)
+
+
+def contact_accumulator(kernel: Gaussian, method: str) -> FieldAccumulator:
+    return FieldAccumulator(kernel, RZCoordinates(), fields=CONTACT_FIELDS, method=method)
+
+
+def one_pass(make, frames, contacts):
+    """Wall and CPU time (all threads) of accumulating all frames into a new accumulator, and its table."""
+    acc = make()
+    acc.prepare()
+    w0, c0 = time.perf_counter(), time.process_time()
+    for k, frame in enumerate(frames):
+        if contacts is None:
+            acc.accumulate(frame)
+        else:
+            acc.accumulate(frame, contacts[k])
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    return wall, cpu, acc.conclude()
+
+
+def best_passes(make, frames, contacts, repeats: int, threads=(None,)):
+    """Per thread count: the best wall time over ``repeats`` passes, its CPU time, and the last table.
+
+    The thread counts take turns, pass by pass, so that a burst of load from
+    other processes hits them alike.
+    """
+    best = {t: (np.inf, np.nan, None) for t in threads}
     for _ in range(repeats):
-        acc = make()
-        acc.prepare()
-        t0 = time.perf_counter()
-        for k, frame in enumerate(frames):
-            if contacts is None:
-                acc.accumulate(frame)
-            else:
-                acc.accumulate(frame, contacts[k])
-        best = min(best, time.perf_counter() - t0)
-        table = acc.conclude()
-    return best, table
+        for t in threads:
+            if t is not None:
+                numba.set_num_threads(t)
+            wall, cpu, table = one_pass(make, frames, contacts)
+            if wall < best[t][0]:
+                best[t] = (wall, cpu, table)
+    return best
 
 
 def max_relative_difference(a, b, columns) -> float:
@@ -194,42 +240,56 @@ def main(argv=None) -> None:
     print(f"machine: {os.cpu_count()} cores, numba {numba.__version__} ({numba.config.NUMBA_NUM_THREADS} threads), "
           f"load average before {os.getloadavg()[0]:.2f}")
 
-    # compile (or load the cache) outside the timings
-    best_pass(lambda: bulk_accumulator(2 * R_B, "compiled"), frames[:1], None, 1)
-    best_pass(lambda: contact_accumulator(R_B, "compiled"), frames[:1], contacts[:1], 1)
+    # compile (or load the cache) outside the timings; the kernels, and so the compiled path's
+    # tables (built once per kernel, on its first deposit), are reused by every pass
+    threads = [t for t in (1, 2) if t <= numba.config.NUMBA_NUM_THREADS]
+    configurations = []
+    for label, make_kernel, make_acc, spacing, cts, unit in (
+        ("bulk, w = 2 r_b", bulk_kernel, bulk_accumulator, R_B, None, n),
+        ("bulk, w = 2 r_b", bulk_kernel, bulk_accumulator, 2 * R_B, None, n),
+        ("contacts, w = r_b/2", contact_kernel, contact_accumulator, R_B / 2, contacts, m),
+    ):
+        kernel = make_kernel(spacing)
+        t0 = time.perf_counter()
+        _ = kernel.rz_tables  # the property builds them
+        build = time.perf_counter() - t0
+        best_passes(lambda: make_acc(kernel, "compiled"), frames[:1], None if cts is None else cts[:1], 1,
+                    threads)
+        configurations.append((label, kernel, make_acc, spacing, cts, unit, build))
 
     rows, agreement = [], []
-    threads = [t for t in (1, 2) if t <= numba.config.NUMBA_NUM_THREADS]
-    for label, make, spacing, cts, unit in (
-        ("bulk, w = 2 r_b", bulk_accumulator, R_B, None, n),
-        ("bulk, w = 2 r_b", bulk_accumulator, 2 * R_B, None, n),
-        ("contacts, w = r_b/2", contact_accumulator, R_B / 2, contacts, m),
-    ):
-        reference_time, reference = best_pass(lambda: make(spacing, "numpy"), frames, cts, args.numpy_repeats)
+    for label, kernel, make_acc, spacing, cts, unit, build in configurations:
+        reference = best_passes(lambda: make_acc(kernel, "numpy"), frames, cts, args.numpy_repeats)[None]
+        reference_time, reference_cpu, reference_table = reference
         nodes = len(grid(spacing)[0]) * len(grid(spacing)[1])
-        rows.append((label, spacing / R_B, nodes, "numpy", 1, unit * args.frames / reference_time, 1.0))
+        rows.append((label, spacing / R_B, nodes, "numpy", 1, unit * args.frames / reference_time, 1.0,
+                     reference_cpu / reference_time))
+        compiled = best_passes(lambda: make_acc(kernel, "compiled"), frames, cts, args.repeats, threads)
         for t in threads:
-            numba.set_num_threads(t)
-            elapsed, table = best_pass(lambda: make(spacing, "compiled"), frames, cts, args.repeats)
+            elapsed, cpu, table = compiled[t]
             rows.append((label, spacing / R_B, nodes, "compiled", t, unit * args.frames / elapsed,
-                         reference_time / elapsed))
+                         reference_time / elapsed, cpu / elapsed))
         numba.set_num_threads(max(threads))
-        values = [c for c in reference.columns if not c.endswith("_se") and c not in ("r", "z")]
+        values = [c for c in reference_table.columns if not c.endswith("_se") and c not in ("r", "z")]
         densities = [c for c in values if c.startswith(("phi", "rho"))]
         derived = [c for c in values if c not in densities]
-        agreement.append((label, spacing / R_B, max_relative_difference(table, reference, densities),
-                          max_relative_difference(table, reference, derived)))
+        agreement.append((label, spacing / R_B, max_relative_difference(table, reference_table, densities),
+                          max_relative_difference(table, reference_table, derived), build))
 
     print()
-    print(f"{'fields':22s} {'nodes':>12s} {'path':>9s} {'threads':>7s} {'items-frames/s':>15s} {'vs numpy':>9s}")
-    for label, spacing, nodes, path, t, rate, ratio in rows:
+    print(f"{'fields':22s} {'nodes':>14s} {'path':>9s} {'threads':>7s} {'items-frames/s':>15s} {'vs numpy':>9s} "
+          f"{'cores used':>10s}")
+    for label, spacing, nodes, path, t, rate, ratio, cores in rows:
         unit = "contact" if label.startswith("contacts") else "particle"
-        print(f"{label:22s} {f'{spacing:g} r_b ({nodes})':>12s} {path:>9s} {t:7d} "
-              f"{rate / 1e6:9.3f} M {unit[0]}  {ratio:8.1f}x")
+        print(f"{label:22s} {f'{spacing:g} r_b ({nodes})':>14s} {path:>9s} {t:7d} "
+              f"{rate / 1e6:9.3f} M {unit[0]}  {ratio:8.1f}x {cores:10.2f}")
+    print("(cores used: CPU time of the best pass over its wall time; below the thread count when other")
+    print(" processes held the cores)")
     print()
     print("agreement, compiled vs numpy: max |difference| / max |numpy| over nodes")
-    for label, spacing, dens, der in agreement:
-        print(f"  {label:22s} nodes {spacing:g} r_b: densities {dens:.1e}, derived fields {der:.1e}")
+    for label, spacing, dens, der, build in agreement:
+        print(f"  {label:22s} nodes {spacing:g} r_b: densities {dens:.1e}, derived fields {der:.1e}"
+              f" (tables built once per kernel in {build * 1e3:.0f} ms, not in the passes)")
     print(f"load average after {os.getloadavg()[0]:.2f}")
 
 

@@ -32,9 +32,10 @@ far from the axis, :math:`a \\ge a_s = \\max(C, 1)`
     analytic on :math:`[0, 1/a_s] \\times [0, \\sqrt C]` (where
     :math:`\\epsilon\\tau^2 \\le 1`): the :math:`a^{-1/2}` decay and the
     :math:`\\sqrt b` edge at the truncation sphere are taken out. Linear in
-    :math:`\\epsilon` (257 rows), Hermite in :math:`t` (129 columns). The table
-    covers every :math:`a \\ge a_s`, :math:`\\epsilon \\to 0` included, so it
-    does not depend on the grid or on the largest radius.
+    :math:`\\epsilon` (257 rows), Hermite in :math:`t` (129 columns), each cell
+    stored as the coefficients of its cubic (a lookup reads 2 x 4 adjacent
+    numbers). The table covers every :math:`a \\ge a_s`, :math:`\\epsilon \\to 0`
+    included, so it does not depend on the grid or on the largest radius.
 
 near the axis, :math:`a < a_s`
     the truncation sphere can enclose the whole ring (:math:`b \\ge 2a`) and
@@ -57,39 +58,65 @@ near the axis, :math:`a < a_s`
     both analytic on :math:`[0, a_s] \\times [0, 2^{-1/2}]` with bounded
     :math:`a`-derivatives: cubic Lagrange in :math:`a` (four rows, weights once
     per grid row of a particle; row spacing at most 1/32), Hermite in
-    :math:`u, v` (65 columns).
+    :math:`u, v` (65 columns, cells stored as cubic coefficients).
 
 Interpolation error, measured against 64-point Gauss-Legendre quadrature of
-:math:`J` on 4e5 random :math:`(a, b)` for :math:`C` = 4 and 4.5: below 3e-8
-relative (2e-8 absolute, :math:`J \\le \\pi`); tests/unit/test_cg_rz.py checks the
+:math:`J` on 4e5 random :math:`(a, b)` for :math:`C` = 4 and 4.5: at most 3.3e-8
+relative (1.9e-8 absolute, :math:`J \\le \\pi`); tests/unit/test_cg_rz.py checks the
 tables and the whole deposit against the numpy quadrature of
 ``Gaussian._assign_rz``.
 
-The Gaussian factors of successive nodes follow by recurrence (two
-exponentials per particle and axis), the node range of each grid row is
-computed, not searched (the compiled path needs equally spaced nodes), and
-each particle's values are added to a row of nodes by one vectorised loop.
-:func:`deposit_rz` runs in parallel over contiguous chunks of particles, one per
-numba thread, each accumulating into its own buffer; the buffers are summed at
-the end (so it also runs with ``NUMBA_NUM_THREADS=1``; the summation order, and
-so the last bits, depend on the thread count). Compiled functions are cached on
-disk (``cache=True``).
+How the deposit is organised (whatever does not depend on the node is computed
+once per particle or once per grid row):
+
+* the Gaussian factor splits, :math:`e^{-p^2/2\\sigma^2} = g_r(r_n)\\, g_z(z_n)`:
+  the factors of successive nodes follow by recurrence (two exponentials per
+  particle and axis, none per node), and the node range of each grid row is
+  computed, not searched (the compiled path needs equally spaced nodes);
+* per grid row, :math:`a`, the far table row and its weight, and
+  :math:`a^{-1/2}` (from :math:`r_n^{-1/2}`, tabulated once per call) are
+  computed once; per node only :math:`J` remains (a square root, then one cell
+  of two table rows);
+* all K quantities of a particle are added to a node in one pass, 4 at a time
+  (:func:`_add_scaled4`: K is padded to a multiple of 4, a node's values are
+  contiguous), into the block of the particle's group;
+* particles are visited in order of group, then nearest node in r, then in z (a
+  counting sort, O(N)), so that successive particles add into the same nodes,
+  in cache, and read the same rows of the far table (:math:`\\epsilon` depends
+  on :math:`r_i`);
+* :func:`deposit_rz` runs on the calling thread and ``n_threads - 1`` helper
+  threads (compiled code without the GIL), each adding into its own buffer;
+  they take chunks of :data:`CHUNK` particles from a shared atomic counter as
+  they go, so that a thread slowed down by another process on a shared machine
+  holds up no one, and a helper that has not started by the time the work is
+  done is cancelled rather than waited for (a fork-join of numba's threading
+  layer waits for every thread to get a core, which on a busy machine costs a
+  scheduler time slice per call). The buffers are summed once at the end. With
+  one thread the result is deterministic; with several, the summation order,
+  and so the last bits (~1e-16 relative), change from call to call. Compiled
+  functions are cached on disk (``cache=True``).
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numba
 import numpy as np
-from numba import njit, prange
+from llvmlite import ir
+from numba import njit
+from numba.core import cgutils, types
+from numba.extending import intrinsic
 from numpy.polynomial.legendre import leggauss
 
 #: Far table: rows over epsilon = 1/a in [0, 1/a_s], columns over t = sqrt(b) in [0, sqrt(C)].
 FAR_ROWS, FAR_COLUMNS = 257, 129
 #: Near tables: row spacing in a at most this, columns over u or v in [0, 2^-1/2].
 NEAR_ROW_SPACING, NEAR_COLUMNS = 1.0 / 32.0, 65
+#: Particles a thread of :func:`deposit_rz` takes at a time.
+CHUNK = 64
 
-_GL_X, _GL_W = leggauss(8)  # per table interval: the integrands are analytic there
+_GL_X, _GL_W = leggauss(4)  # per table interval: analytic integrands, round-off already with 4
 
 
 def _cumulative(integrand, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
@@ -101,6 +128,24 @@ def _cumulative(integrand, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
     table[:, 1:, 0] = np.cumsum(0.5 * h * (f * _GL_W).sum(axis=-1), axis=1)
     table[:, :, 1] = integrand(rows[:, None], columns[None, :]) * h  # derivative per column step
     return table
+
+
+def _hermite_cells(table: np.ndarray) -> np.ndarray:
+    """Coefficients ``(f0, d0, c2, c3)`` of the cubic on each cell between adjacent columns.
+
+    From a table of values :math:`f` and derivatives :math:`d` (per column step),
+    the Hermite cubic of the cell from column k to k + 1,
+
+    .. math::
+
+        p(s) = f_0 + s\\,(d_0 + s\\,(c_2 + s\\,c_3)), \\quad s \\in [0, 1], \\qquad
+        c_2 = 3(f_1 - f_0) - 2 d_0 - d_1, \\quad c_3 = 2(f_0 - f_1) + d_0 + d_1 ,
+
+    matches value and derivative at both ends. Shape ``(..., columns - 1, 4)``.
+    """
+    f0, d0, f1, d1 = table[..., :-1, 0], table[..., :-1, 1], table[..., 1:, 0], table[..., 1:, 1]
+    return np.ascontiguousarray(np.stack([f0, d0, 3.0 * (f1 - f0) - 2.0 * d0 - d1,
+                                          2.0 * (f0 - f1) + d0 + d1], axis=-1))
 
 
 def _far_integrand(eps, tau):
@@ -125,12 +170,15 @@ class RZTables:
         :math:`c^2 / 2\\sigma^2`.
     a_split : float
         :math:`a_s = \\max(C, 1)`.
-    far : ndarray, shape (FAR_ROWS + 1, FAR_COLUMNS + 1, 2)
-        :math:`K(\\epsilon, t)` and :math:`h_t \\partial_t K` (one row and column
-        beyond the range).
-    near_u, near_v : ndarray, shape (n_a + 3, NEAR_COLUMNS, 2)
-        :math:`U(a, u)`, :math:`\\tilde V(a, v)` and their column derivatives times
-        the column step, rows at :math:`a = (k - 1) h_a`.
+    far : ndarray, shape (FAR_ROWS + 1, FAR_COLUMNS, 4)
+        Cubic coefficients (:func:`_hermite_cells`) of :math:`K(\\epsilon, t)` on
+        the cells of t, per row of :math:`\\epsilon` (one row and one cell beyond
+        the range: interpolation never needs a bounds test).
+    near_u, near_v : ndarray, shape (n_a + 3, NEAR_COLUMNS - 1, 4)
+        Cubic coefficients of :math:`U(a, u)` and :math:`\\tilde V(a, v)` on the
+        cells of u or v, rows at :math:`a = (k - 1) h_a`.
+    near_end : ndarray, shape (n_a + 3, 2)
+        :math:`U(a, 2^{-1/2})` and :math:`\\tilde V(a, 2^{-1/2})` on those rows.
     near_step : float
         :math:`h_a`.
     """
@@ -140,24 +188,27 @@ class RZTables:
     far: np.ndarray
     near_u: np.ndarray
     near_v: np.ndarray
+    near_end: np.ndarray
     near_step: float
 
     @classmethod
     def build(cls, C: float) -> "RZTables":
         a_split = max(float(C), 1.0)
-        # one row and one column beyond the range: interpolation never needs a bounds test
+        # one row and one column beyond the range
         eps = np.arange(FAR_ROWS + 1) / (a_split * (FAR_ROWS - 1))
         t = np.arange(FAR_COLUMNS + 1) * (np.sqrt(C) / (FAR_COLUMNS - 1))
         n_a = int(np.ceil(a_split / NEAR_ROW_SPACING))
         step = a_split / n_a
         a = (np.arange(n_a + 3) - 1.0) * step  # one ghost row below 0, two above a_s
         u = np.linspace(0.0, np.sqrt(0.5), NEAR_COLUMNS)
+        near_u, near_v = _cumulative(_u_integrand, a, u), _cumulative(_v_integrand, a, u)
         return cls(
             C=float(C),
             a_split=a_split,
-            far=_cumulative(_far_integrand, eps, t),
-            near_u=_cumulative(_u_integrand, a, u),
-            near_v=_cumulative(_v_integrand, a, u),
+            far=_hermite_cells(_cumulative(_far_integrand, eps, t)),
+            near_u=_hermite_cells(near_u),
+            near_v=_hermite_cells(near_v),
+            near_end=np.ascontiguousarray(np.column_stack([near_u[:, -1, 0], near_v[:, -1, 0]])),
             near_step=step,
         )
 
@@ -165,50 +216,90 @@ class RZTables:
         """:math:`J(a, b)` for arrays of pairs, with the compiled interpolation (for tests)."""
         a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
         out = np.empty(a.shape)
-        _J_pairs(a.ravel(), b.ravel(), *self._args(), out.reshape(-1))
+        _J_pairs(np.ascontiguousarray(a).reshape(-1), np.ascontiguousarray(b).reshape(-1), *self._args(),
+                 out.reshape(-1))
         return out
 
     def _args(self):
+        """The tables and their scales, in the order the compiled functions take them."""
         t_scale = (FAR_COLUMNS - 1) / np.sqrt(self.C)
         u_scale = (NEAR_COLUMNS - 1) / np.sqrt(0.5)
         return (self.C, self.a_split, self.far, (FAR_ROWS - 1) * self.a_split, t_scale,
-                self.near_u, self.near_v, 1.0 / self.near_step, u_scale)
+                self.near_u, self.near_v, self.near_end, 1.0 / self.near_step, u_scale)
 
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=True)
 
 
-@njit(inline="always", **_JIT)
-def _hermite(f0, d0, f1, d1, s):
-    c2 = 3.0 * (f1 - f0) - 2.0 * d0 - d1
-    c3 = 2.0 * (f0 - f1) + d0 + d1
-    return f0 + s * (d0 + s * (c2 + s * c3))
+@intrinsic
+def _fetch_add(typingctx, counter, delta):
+    """``counter[0] += delta`` in one atomic step, returning the value before.
+
+    The workers of :func:`_deposit_worker` take their next chunk of particles
+    with it (an LLVM ``atomicrmw add``: numba has no atomics on the CPU).
+    """
+    if not (isinstance(counter, types.Array) and counter.dtype == types.int64 and counter.ndim == 1
+            and isinstance(delta, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        array = context.make_array(sig.args[0])(context, builder, args[0])
+        return builder.atomic_rmw("add", array.data, args[1], "monotonic")
+
+    return types.int64(counter, types.int64), codegen
 
 
-# Table indices are unsigned (np.uint64) throughout: numba then skips the
-# negative-index wraparound test, which otherwise blocks vectorisation.
+_V4 = ir.VectorType(ir.DoubleType(), 4)
+
+
+@intrinsic
+def _add_scaled4(typingctx, out, o, w, q, k):
+    """``out[o:o + 4] += w * q[k:k + 4]`` as one 4-wide fused multiply-add (no bounds test).
+
+    The deposit's innermost operation. Numba runs LLVM's loop vectoriser but
+    not its SLP vectoriser, and a loop over K = 12 values is too short for the
+    former (it would need 16): the packed operation is written out here.
+    """
+    if not all(isinstance(a, types.Array) and a.dtype == types.float64 and a.ndim == 1 and a.layout == "C"
+               for a in (out, q)):
+        return None  # contiguous float64 vectors only: the element offsets are taken as addresses
+
+    def codegen(context, builder, sig, args):
+        out_data = context.make_array(sig.args[0])(context, builder, args[0]).data
+        q_data = context.make_array(sig.args[3])(context, builder, args[3]).data
+        target = builder.bitcast(builder.gep(out_data, [args[1]]), _V4.as_pointer())
+        source = builder.bitcast(builder.gep(q_data, [args[4]]), _V4.as_pointer())
+        zeros = ir.Constant(ir.VectorType(ir.IntType(32), 4), [0, 0, 0, 0])
+        w4 = builder.insert_element(ir.Constant(_V4, ir.Undefined), args[2], ir.Constant(ir.IntType(32), 0))
+        w4 = builder.shuffle_vector(w4, ir.Constant(_V4, ir.Undefined), zeros)
+        fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V4, [_V4] * 3), "llvm.fma.v4f64")
+        total = builder.call(fma, [w4, builder.load(source, align=8), builder.load(target, align=8)])
+        builder.store(total, target, align=8)
+        return context.get_dummy_value()
+
+    return types.void(out, types.uint64, types.float64, q, types.uint64), codegen
+
+
+# Table and buffer indices are unsigned (np.uint64): numba then skips the negative-index
+# wraparound test, which otherwise blocks vectorisation. In the per-node lookup, floats are
+# converted to (non-negative) indices through int64: one instruction each way, where uint64
+# needs several.
 _U1, _U2, _U3 = np.uint64(1), np.uint64(2), np.uint64(3)
 
 
 @njit(inline="always", **_JIT)
-def _far_row(fe):
-    """Row index and fraction of epsilon = 1/a, given in row units ``fe`` (at most FAR_ROWS - 1)."""
-    ie = np.uint64(fe)
-    return ie, fe - ie
+def _cubic(cells, i, j, s):
+    """The cubic of cell ``cells[i, j]`` at ``s`` (Estrin's scheme: a shorter dependency chain than Horner's)."""
+    return (cells[i, j, 0] + s * cells[i, j, 1]) + (s * s) * (cells[i, j, 2] + s * cells[i, j, 3])
 
 
 @njit(inline="always", **_JIT)
 def _far_K(far, ie, fe, t):
-    """K(epsilon, t): linear between rows ie, ie + 1, Hermite in t (t in column units, <= FAR_COLUMNS - 1)."""
-    it = np.uint64(t)
+    """K(epsilon, t): linear between rows ie, ie + 1 (fraction fe), the cell's cubic in t (column units)."""
+    it = np.int64(t)  # t >= 0
     s = t - it
-    ge = 1.0 - fe
-    ie1, it1 = ie + _U1, it + _U1
-    f0 = ge * far[ie, it, 0] + fe * far[ie1, it, 0]
-    d0 = ge * far[ie, it, 1] + fe * far[ie1, it, 1]
-    f1 = ge * far[ie, it1, 0] + fe * far[ie1, it1, 0]
-    d1 = ge * far[ie, it1, 1] + fe * far[ie1, it1, 1]
-    return _hermite(f0, d0, f1, d1, s)
+    k0 = _cubic(far, ie, np.uint64(it), s)
+    return k0 + fe * (_cubic(far, ie + _U1, np.uint64(it), s) - k0)
 
 
 @njit(inline="always", **_JIT)
@@ -228,31 +319,23 @@ def _near_row(a, a_scale, n_a):
 
 
 @njit(inline="always", **_JIT)
-def _near_value(table, ia, l0, l1, l2, l3, u):
-    """U or V-tilde at (a, u): cubic in a (weights l), Hermite in u (column units)."""
+def _near_value(cells, ia, l0, l1, l2, l3, u):
+    """U or V-tilde at (a, u): cubic Lagrange in a (weights l), the cell's cubic in u (column units)."""
     iu = np.uint64(u)
-    cap = np.uint64(table.shape[1] - 2)
+    cap = np.uint64(cells.shape[1] - 1)
     if iu > cap:
         iu = cap
     s = u - iu
-    a1, a2, a3 = ia + _U1, ia + _U2, ia + _U3
-    f0 = l0 * table[ia, iu, 0] + l1 * table[a1, iu, 0] + l2 * table[a2, iu, 0] + l3 * table[a3, iu, 0]
-    d0 = l0 * table[ia, iu, 1] + l1 * table[a1, iu, 1] + l2 * table[a2, iu, 1] + l3 * table[a3, iu, 1]
-    j = iu + _U1
-    f1 = l0 * table[ia, j, 0] + l1 * table[a1, j, 0] + l2 * table[a2, j, 0] + l3 * table[a3, j, 0]
-    d1 = l0 * table[ia, j, 1] + l1 * table[a1, j, 1] + l2 * table[a2, j, 1] + l3 * table[a3, j, 1]
-    return _hermite(f0, d0, f1, d1, s)
+    return (l0 * _cubic(cells, ia, iu, s) + l1 * _cubic(cells, ia + _U1, iu, s)
+            + l2 * _cubic(cells, ia + _U2, iu, s) + l3 * _cubic(cells, ia + _U3, iu, s))
 
 
 @njit(inline="always", **_JIT)
-def _near_full(near_u, near_v, ia, l0, l1, l2, l3, e_a):
+def _near_full(near_end, ia, l0, l1, l2, l3, e_a):
     """J_pi(a) = U(a, 2^-1/2) + e^-a V-tilde(a, 2^-1/2)."""
-    last = np.uint64(near_u.shape[1] - 1)
     a1, a2, a3 = ia + _U1, ia + _U2, ia + _U3
-    return (l0 * (near_u[ia, last, 0] + e_a * near_v[ia, last, 0])
-            + l1 * (near_u[a1, last, 0] + e_a * near_v[a1, last, 0])
-            + l2 * (near_u[a2, last, 0] + e_a * near_v[a2, last, 0])
-            + l3 * (near_u[a3, last, 0] + e_a * near_v[a3, last, 0]))
+    return (l0 * (near_end[ia, 0] + e_a * near_end[ia, 1]) + l1 * (near_end[a1, 0] + e_a * near_end[a1, 1])
+            + l2 * (near_end[a2, 0] + e_a * near_end[a2, 1]) + l3 * (near_end[a3, 0] + e_a * near_end[a3, 1]))
 
 
 @njit(inline="always", **_JIT)
@@ -266,7 +349,7 @@ def _near_J(b, a, inv_2a, full, e_a, near_u, near_v, ia, l0, l1, l2, l3, u_scale
 
 
 @njit(**_JIT)
-def _J_pairs(a_arr, b_arr, C, a_split, far, eps_scale, t_scale, near_u, near_v, a_scale, u_scale, out):
+def _J_pairs(a_arr, b_arr, C, a_split, far, eps_scale, t_scale, near_u, near_v, near_end, a_scale, u_scale, out):
     """J(a, b) pair by pair (test hook of the interpolation used in the deposit)."""
     n_a = near_u.shape[0] - 3
     for p in range(a_arr.shape[0]):
@@ -274,64 +357,95 @@ def _J_pairs(a_arr, b_arr, C, a_split, far, eps_scale, t_scale, near_u, near_v, 
         if b <= 0.0:
             out[p] = 0.0
         elif a >= a_split:
-            ie, fe = _far_row(eps_scale / a)
-            out[p] = _far_K(far, ie, fe, np.sqrt(min(b, C)) * t_scale) / np.sqrt(a)
+            fe = eps_scale / a
+            ie = np.int64(fe)
+            out[p] = _far_K(far, np.uint64(ie), fe - ie, np.sqrt(min(b, C)) * t_scale) / np.sqrt(a)
         else:
             ia, l0, l1, l2, l3 = _near_row(a, a_scale, n_a)
             e_a = np.exp(-a)
-            full = _near_full(near_u, near_v, ia, l0, l1, l2, l3, e_a)
+            full = _near_full(near_end, ia, l0, l1, l2, l3, e_a)
             inv_2a = 0.5 / a if a > 0.0 else 0.0
             out[p] = _near_J(b, a, inv_2a, full, e_a, near_u, near_v, ia, l0, l1, l2, l3, u_scale)
 
 
-#: Values are padded with zeros to a multiple of this many columns, so that the
-#: vectorised loop over them has no remainder.
+#: Values are padded with zeros to a multiple of this many columns, added 4 at a time.
 _BLOCK = 4
 
 
 @njit(inline="always", **_JIT)
-def _deposit_row(out, o, step, wz, j_lo, j_hi, q, n_pad):
-    """out[o + (j - j_lo) step + k] += wz[j] q[k] for j in [j_lo, j_hi), k < n_pad."""
-    n = np.uint64(n_pad)
+def _deposit_row(out, o, wz, j_lo, j_hi, q):
+    """out[o + (j - j_lo) K + k] += wz[j] q[k] for j in [j_lo, j_hi), k < K = len(q), a multiple of 4."""
+    n_pad = np.uint64(q.shape[0])
+    u4, u8, u12 = np.uint64(4), np.uint64(8), np.uint64(12)
     for j in range(j_lo, j_hi):
         w = wz[j]
-        for k in range(n):  # unsigned, contiguous: the loop vectoriser packs it
-            out[o + k] += w * q[k]
-        o += step
+        k = np.uint64(0)
+        while k + u12 <= n_pad:  # three blocks at a time: no loop overhead up to K = 12
+            _add_scaled4(out, o + k, w, q, k)
+            _add_scaled4(out, o + k + u4, w, q, k + u4)
+            _add_scaled4(out, o + k + u8, w, q, k + u8)
+            k += u12
+        while k < n_pad:
+            _add_scaled4(out, o + k, w, q, k)
+            k += u4
+        o += n_pad
 
 
 @njit(**_JIT)
-def _deposit_chunk(start, stop, r, z, values, groups, r0, hr, n_r, z0, hz, n_z, half_inv_var, inv_var, C,
-                   norm, a_split, far, eps_scale, t_scale, near_u, near_v, a_scale, u_scale, gz, dz2h, wz, q,
-                   out):
-    """Add particles start .. stop - 1 into ``out`` of shape (groups, n_r, n_z, K padded), flat.
+def _visiting_order(r, z, groups, n_groups, r0, hr, n_r, z0, hz, n_z):
+    """Particle indices by group, then nearest node in r, then in z (a stable counting sort)."""
+    n = r.shape[0]
+    n_cells = n_r * n_z
+    key = np.empty(n, dtype=np.int64)
+    start = np.zeros(n_groups * n_cells + 1, dtype=np.int64)
+    inv_hr, inv_hz = 1.0 / hr, 1.0 / hz
+    for i in range(n):
+        x, y = (r[i] - r0) * inv_hr, (z[i] - z0) * inv_hz
+        m = 0 if x <= 0.0 else (n_r - 1 if x >= n_r - 1 else int(x + 0.5))  # positions are finite
+        j = 0 if y <= 0.0 else (n_z - 1 if y >= n_z - 1 else int(y + 0.5))
+        key[i] = groups[i] * n_cells + m * n_z + j
+        start[key[i] + 1] += 1
+    for c in range(1, start.shape[0]):
+        start[c] += start[c - 1]
+    order = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        order[start[key[i]]] = i
+        start[key[i]] += 1
+    return order
 
-    Uniform node axes ``r0 + m hr`` (m < n_r) and ``z0 + j hz`` (j < n_z): node
-    ranges are computed, not searched, and the Gaussian factors of successive
-    nodes follow by recurrence, :math:`g_{j+1} = g_j \\rho_j`,
-    :math:`\\rho_{j+1} = \\rho_j e^{-h^2/\\sigma^2}` (a relative round-off of
-    ~1e-15 over a kernel's nodes). ``gz``, ``dz2h`` and ``wz`` are scratch arrays
-    of length n_z, ``q`` of the padded K.
+
+@njit(**_JIT)
+def _deposit_particles(order, start, stop, r, z, values, groups, grid, kernel, tables, inv_r, inv_sqrt_r, gz, dz2h,
+                       wz, q, out):
+    """Add particles ``order[start:stop]`` into ``out`` of shape (groups, n_r, n_z, K padded), flat.
+
+    ``grid`` is ``(r0, hr, n_r, z0, hz, n_z)``: uniform node axes ``r0 + m hr``
+    (m < n_r) and ``z0 + j hz`` (j < n_z). Node ranges are computed, not
+    searched, and the Gaussian factors of successive nodes follow by recurrence,
+    :math:`g_{j+1} = g_j \\rho_j`, :math:`\\rho_{j+1} = \\rho_j e^{-h^2/\\sigma^2}`
+    (a relative round-off of ~1e-15 over a kernel's nodes). ``kernel`` is
+    ``(1/2 sigma^2, C, 1/pi Z)``, ``tables`` is :meth:`RZTables._args` without
+    C. ``inv_r`` and ``inv_sqrt_r`` hold :math:`1/r_n` and :math:`r_n^{-1/2}`
+    (0 on the axis); ``gz``, ``dz2h`` and ``wz`` are scratch arrays of length
+    n_z, ``q`` of the padded K.
     """
+    r0, hr, n_r, z0, hz, n_z = grid
+    half_inv_var, C, norm = kernel
+    a_split, far, eps_scale, t_scale, near_u, near_v, near_end, a_scale, u_scale = tables
     n_k = values.shape[1]
     n_pad = q.shape[0]
     n_a = near_u.shape[0] - 3
-    reach = np.sqrt(C / half_inv_var)  # the cutoff c
     two_var = 1.0 / half_inv_var
+    inv_var = 2.0 * half_inv_var
+    reach = np.sqrt(C * two_var)  # the cutoff c
     kappa_r = np.exp(-2.0 * hr * hr * half_inv_var)
     kappa_z = np.exp(-2.0 * hz * hz * half_inv_var)
     inv_hr, inv_hz = 1.0 / hr, 1.0 / hz
-    sigma = np.sqrt(1.0 / inv_var)
-    step = np.uint64(n_pad)
-    inv_r = np.empty(n_r)
-    inv_sqrt_r = np.empty(n_r)
-    for m in range(n_r):
-        rn = r0 + m * hr
-        inv_r[m] = 1.0 / rn if rn > 0.0 else 0.0  # only rows with a >= a_split > 0 use them
-        inv_sqrt_r[m] = np.sqrt(inv_r[m])
+    sigma = np.sqrt(0.5 * two_var)
     for k in range(n_k, n_pad):
         q[k] = 0.0
-    for i in range(start, stop):
+    for p in range(start, stop):
+        i = order[p]
         ri, zi = r[i], z[i]
         m_lo = max(0, int(np.ceil((ri - reach - r0) * inv_hr)))
         m_hi = min(n_r, int(np.floor((ri + reach - r0) * inv_hr)) + 1)
@@ -339,6 +453,7 @@ def _deposit_chunk(start, stop, r, z, values, groups, r0, hr, n_r, z0, hz, n_z, 
         nz = min(n_z, int(np.floor((zi + reach - z0) * inv_hz)) + 1) - j0
         if m_lo >= m_hi or nz <= 0:
             continue
+        # the z factors and squared distances of the particle's node columns, once
         d = z0 + j0 * hz - zi
         g = np.exp(-d * d * half_inv_var)
         rho = np.exp(-(2.0 * d * hz + hz * hz) * half_inv_var)
@@ -375,18 +490,20 @@ def _deposit_chunk(start, stop, r, z, values, groups, r0, hr, n_r, z0, hz, n_z, 
             a = rn * ri * inv_var
             o = np.uint64(((group_row + m) * n_z + j0 + j_lo) * n_pad)
             if a >= a_split:
-                ie, fe = _far_row(eps_i * inv_r[m])
-                g_row *= inv_sqrt_r[m] * inv_sqrt_ri  # 1 / sqrt(a)
+                fe = eps_i * inv_r[m]
+                ie = np.int64(fe)
+                fe -= ie
+                w_row = g_row * inv_sqrt_r[m] * inv_sqrt_ri  # times 1 / sqrt(a)
                 # two passes: t with vectorised square roots, then the table lookups, whose
-                # long dependency chains overlap once nothing else waits on them
+                # dependency chains overlap once nothing else waits on them
                 for j in range(np.uint64(j_lo), np.uint64(j_hi)):
                     wz[j] = np.sqrt(max(b_row - dz2h[j], 0.0)) * t_scale
                 for j in range(np.uint64(j_lo), np.uint64(j_hi)):
-                    wz[j] = g_row * gz[j] * _far_K(far, ie, fe, wz[j])
+                    wz[j] = w_row * gz[j] * _far_K(far, np.uint64(ie), fe, wz[j])
             else:
                 ia, l0, l1, l2, l3 = _near_row(a, a_scale, n_a)
                 e_a = np.exp(-a)
-                full = _near_full(near_u, near_v, ia, l0, l1, l2, l3, e_a)
+                full = _near_full(near_end, ia, l0, l1, l2, l3, e_a)
                 inv_2a = 0.5 / a if a > 0.0 else 0.0
                 for j in range(j_lo, j_hi):
                     b = b_row - dz2h[j]
@@ -395,7 +512,7 @@ def _deposit_chunk(start, stop, r, z, values, groups, r0, hr, n_r, z0, hz, n_z, 
                                                         ia, l0, l1, l2, l3, u_scale)
                     else:
                         wz[j] = 0.0
-            _deposit_row(out, o, step, wz, j_lo, j_hi, q, n_pad)
+            _deposit_row(out, o, wz, j_lo, j_hi, q)
 
 
 def padded(n_k: int) -> int:
@@ -403,26 +520,105 @@ def padded(n_k: int) -> int:
     return -(-n_k // _BLOCK) * _BLOCK
 
 
-@njit(parallel=True, **_JIT)
-def _deposit_parallel(r, z, values, groups, n_groups, r0, hr, n_r, z0, hz, n_z, half_inv_var, inv_var, C,
-                      norm, a_split, far, eps_scale, t_scale, near_u, near_v, a_scale, u_scale, n_pad,
-                      n_chunks):
-    """One contiguous chunk of particles per thread, each adding into its own buffer; then the sum."""
-    n = r.shape[0]
-    size = n_groups * n_r * n_z * n_pad
-    buffers = np.zeros((n_chunks, size))
-    for c in prange(n_chunks):
-        gz = np.empty(n_z)
-        dz2h = np.empty(n_z)
-        wz = np.empty(n_z)
-        q = np.empty(n_pad)
-        _deposit_chunk((n * c) // n_chunks, (n * (c + 1)) // n_chunks, r, z, values, groups, r0, hr, n_r,
-                       z0, hz, n_z, half_inv_var, inv_var, C, norm, a_split, far, eps_scale, t_scale,
-                       near_u, near_v, a_scale, u_scale, gz, dz2h, wz, q, buffers[c])
-    total = buffers[0]
-    for c in range(1, n_chunks):
-        total += buffers[c]
+@njit(**_JIT)
+def _prepare(r, z, groups, n_groups, grid):
+    """The visiting order, and :math:`1/r_n`, :math:`r_n^{-1/2}` per grid row (0 on the axis)."""
+    r0, hr, n_r, z0, hz, n_z = grid
+    order = _visiting_order(r, z, groups, n_groups, r0, hr, n_r, z0, hz, n_z)
+    inv_r = np.zeros(n_r)
+    inv_sqrt_r = np.zeros(n_r)
+    for m in range(n_r):
+        rn = r0 + m * hr
+        if rn > 0.0:  # only rows with a >= a_split > 0 use them
+            inv_r[m] = 1.0 / rn
+            inv_sqrt_r[m] = 1.0 / np.sqrt(rn)
+    return order, inv_r, inv_sqrt_r
+
+
+@njit(nogil=True, **_JIT)
+def _deposit_worker(worker, counters, order, r, z, values, groups, grid, kernel, tables, inv_r, inv_sqrt_r,
+                    scratch, buffer):
+    """One worker: chunks of :data:`CHUNK` particles of the visiting order, added into ``buffer``.
+
+    The order is cut into one stretch per worker; ``counters[8 s]`` is the next
+    particle of stretch ``s`` (a cache line per counter). A worker takes chunks
+    from its own stretch, in order (so that successive chunks share nodes and
+    table rows), then from the others' until none is left. Runs without the
+    GIL, on any thread.
+    """
+    n_z = grid[5]
+    n_pad = -(-values.shape[1] // _BLOCK) * _BLOCK
+    q = scratch[:n_pad]
+    gz, dz2h, wz = scratch[n_pad:n_pad + n_z], scratch[n_pad + n_z:n_pad + 2 * n_z], scratch[n_pad + 2 * n_z:]
+    n, n_workers = r.shape[0], counters.shape[0] // 8
+    for i in range(n_workers):
+        stretch = (worker + i) % n_workers
+        stop = (n * (stretch + 1)) // n_workers
+        start = _fetch_add(counters[8 * stretch:], CHUNK)
+        while start < stop:
+            _deposit_particles(order, start, min(start + CHUNK, stop), r, z, values, groups, grid, kernel, tables,
+                               inv_r, inv_sqrt_r, gz, dz2h, wz, q, buffer)
+            start = _fetch_add(counters[8 * stretch:], CHUNK)
+
+
+@njit(**_JIT)
+def _unpadded_sum(buffers, workers, n_k):
+    """Sum of the buffers of ``workers``, without the padding: shape (nodes of all groups, K)."""
+    n_pad = -(-n_k // _BLOCK) * _BLOCK
+    n_nodes = buffers.shape[1] // n_pad
+    total = np.zeros((n_nodes, n_k))
+    for w in workers:
+        buffer = buffers[w]
+        for node in range(n_nodes):
+            for k in range(n_k):
+                total[node, k] += buffer[node * n_pad + k]
     return total
+
+
+def _aligned_zeros(rows: int, length: int, line: int = 64) -> np.ndarray:
+    """Zeros of shape (rows, length), each row starting on a cache line, rows a whole number of lines apart."""
+    per_line = line // 8
+    stride = -(-length // per_line) * per_line
+    raw = np.zeros(rows * stride + per_line)
+    shift = (-raw.ctypes.data % line) // 8
+    return raw[shift:shift + rows * stride].reshape(rows, stride)[:, :length]
+
+
+def _deposit_threads(r, z, values, groups, n_groups, grid, kernel, tables, n_workers: int) -> np.ndarray:
+    """Run :func:`_deposit_worker` on this thread and ``n_workers - 1`` helper threads; the summed buffers.
+
+    The helpers share the work only if they get a core in time: a helper that
+    has not started when this thread finds no chunk left is cancelled (so a
+    busy machine costs no waiting for a core), one that has started is waited
+    for (it is adding its last chunk).
+    """
+    order, inv_r, inv_sqrt_r = _prepare(r, z, groups, n_groups, grid)
+    n_pad = padded(values.shape[1])
+    n_z = grid[5]
+    size = n_groups * grid[2] * n_z * n_pad
+    # rows on cache lines of their own: 4-wide additions never straddle two lines, and no line
+    # is shared between workers (it would bounce between the cores)
+    buffers = _aligned_zeros(n_workers, size)
+    scratch = _aligned_zeros(n_workers, n_pad + 3 * n_z)
+    # the next particle of each worker's stretch of the order, a cache line per counter
+    counters = _aligned_zeros(1, 8 * n_workers)[0].view(np.int64)
+    counters[::8] = (len(r) * np.arange(n_workers)) // n_workers
+    shared = (counters, order, r, z, values, groups, grid, kernel, tables, inv_r, inv_sqrt_r)
+    workers = [0]
+    if n_workers == 1:
+        _deposit_worker(0, *shared, scratch[0], buffers[0])
+    else:
+        pool = ThreadPoolExecutor(n_workers - 1, thread_name_prefix="deposit_rz")
+        try:
+            helpers = [pool.submit(_deposit_worker, w, *shared, scratch[w], buffers[w]) for w in range(1, n_workers)]
+            _deposit_worker(0, *shared, scratch[0], buffers[0])
+            for w, helper in enumerate(helpers, start=1):
+                if not helper.cancel():
+                    helper.result()
+                    workers.append(w)
+        finally:
+            pool.shutdown(wait=False)
+    return _unpadded_sum(buffers, np.array(workers, dtype=np.int64), values.shape[1])
 
 
 def uniform_axis(nodes, rtol: float = 1e-9) -> tuple[float, float, int] | None:
@@ -437,7 +633,7 @@ def uniform_axis(nodes, rtol: float = 1e-9) -> tuple[float, float, int] | None:
     return float(nodes[0]), float(h), int(nodes.size)
 
 
-def deposit_rz(points, values, groups, n_groups, r_nodes, z_nodes, width, cutoff, norm, tables: RZTables,
+def deposit_rz(points, values, groups, n_groups, r_axis, z_axis, width, cutoff, norm, tables: RZTables,
                n_threads: int | None = None) -> np.ndarray:
     """Kernel-weighted densities of ``values`` on the ``(r, z)`` grid, per group.
 
@@ -450,8 +646,8 @@ def deposit_rz(points, values, groups, n_groups, r_nodes, z_nodes, width, cutoff
     groups : ndarray of int, shape (N,)
         Group of each particle, in ``[0, n_groups)``.
     n_groups : int
-    r_nodes, z_nodes : ndarray
-        Equally spaced, increasing node axes.
+    r_axis, z_axis : tuple (first, spacing, count)
+        The equally spaced node axes (:func:`uniform_axis`).
     width, cutoff : float
         :math:`\\sigma` and :math:`c`.
     norm : float
@@ -459,29 +655,30 @@ def deposit_rz(points, values, groups, n_groups, r_nodes, z_nodes, width, cutoff
     tables : RZTables
         Built for :math:`C = c^2 / 2\\sigma^2`.
     n_threads : int, optional
-        Number of chunks, run in parallel by up to that many numba threads;
-        default :func:`numba.get_num_threads`.
+        Number of threads (this one and helpers, each adding into its own
+        buffer); default :func:`numba.get_num_threads`.
 
     Returns
     -------
     ndarray, shape (n_groups, n_r * n_z, K)
-        :math:`\\sum_{i \\in g} w_{in} q_{ik}`, nodes in C order (z fastest); a view
-        into the padded buffer (not contiguous when K is not a multiple of 4).
+        :math:`\\sum_{i \\in g} w_{in} q_{ik}`, nodes in C order (z fastest), contiguous.
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    values = np.ascontiguousarray(values, dtype=np.float64).reshape(len(points), -1)
-    groups = np.ascontiguousarray(groups, dtype=np.int64)
-    r_axis, z_axis = uniform_axis(r_nodes), uniform_axis(z_nodes)
-    if r_axis is None or z_axis is None:
-        raise ValueError("the compiled rz deposit needs equally spaced r and z nodes")
+    values = np.asarray(values, dtype=np.float64)
+    values = values[:, None] if values.ndim == 1 else values
+    groups = np.asarray(groups, dtype=np.int64)
+    finite = np.isfinite(points).all(axis=1)
+    if not finite.all():  # as in the numpy path, a particle without a position has no node
+        points, values, groups = points[finite], values[finite], groups[finite]
+    values, groups = np.ascontiguousarray(values), np.ascontiguousarray(groups)
+    (r0, hr, n_r), (z0, hz, n_z) = r_axis, z_axis
     n_groups, n_k = int(n_groups), values.shape[1]
     n_threads = max(1, int(n_threads or numba.get_num_threads()))
     C = cutoff**2 / (2.0 * width**2)
     if abs(C - tables.C) > 1e-12 * C:
         raise ValueError(f"tables were built for C = {tables.C}, kernel has C = {C}")
-    total = _deposit_parallel(
-        np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1]), values, groups, n_groups,
-        *r_axis, *z_axis, 0.5 / width**2, 1.0 / width**2, C, float(norm), *tables._args()[1:],
-        padded(n_k), n_threads,
-    )
-    return total.reshape(n_groups, r_axis[2] * z_axis[2], padded(n_k))[:, :, :n_k]
+    grid = (float(r0), float(hr), int(n_r), float(z0), float(hz), int(n_z))
+    total = _deposit_threads(np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1]), values,
+                             groups, n_groups, grid, (0.5 / width**2, C, float(norm)), tables._args()[1:],
+                             n_threads)
+    return total.reshape(n_groups, n_r * n_z, n_k)

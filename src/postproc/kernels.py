@@ -561,6 +561,7 @@ class Gaussian(RadialKernel):
         self.width = float(width)
         self.paper_w: float | None = None
         self._rz_tables = None  # built on the first compiled rz deposit
+        self._rz_axes = None  # (first, spacing, count) of r and z, or False: checked on first use
 
     @classmethod
     def paper(cls, w: float, nodes) -> "Gaussian":
@@ -633,9 +634,12 @@ class Gaussian(RadialKernel):
     def _compiled_rz(self, coordinates) -> bool:
         if coordinates.kind != "rz" or len(self.nodes) != 2:
             return False
-        from . import cg_compiled  # numba is imported only where it is used
+        if self._rz_axes is None:
+            from . import cg_compiled  # numba is imported only where it is used
 
-        return all(cg_compiled.uniform_axis(a) is not None for a in self.nodes)
+            axes = tuple(cg_compiled.uniform_axis(a) for a in self.nodes)
+            self._rz_axes = axes if all(a is not None for a in axes) else False
+        return bool(self._rz_axes)
 
     @property
     def rz_tables(self):
@@ -653,14 +657,14 @@ class Gaussian(RadialKernel):
     def _deposit_rz_compiled(self, points, values, groups, n_groups, n_threads) -> np.ndarray:
         from . import cg_compiled
 
-        points = np.asarray(points, dtype=float).reshape(len(points), -1)
-        if points.shape[1] != 2:
-            raise ValueError(f"rz points must have 2 columns (r, z), got {points.shape[1]}")
+        points = np.asarray(points, dtype=float)
+        if points.ndim != 2 or points.shape[1] != 2:
+            raise ValueError(f"rz points must have 2 columns (r, z), got shape {points.shape}")
         groups = _check_groups(groups, len(points), n_groups)
         if groups is None:
             groups = np.zeros(len(points), dtype=np.int64)
         return cg_compiled.deposit_rz(
-            points, values, groups, n_groups, self.nodes[0], self.nodes[1], self.width, self.cutoff,
+            points, values, groups, n_groups, *self._rz_axes, self.width, self.cutoff,
             1.0 / (np.pi * self.normalisation), self.rz_tables, n_threads=n_threads,
         )
 

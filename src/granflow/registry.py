@@ -173,6 +173,19 @@ class Workload:
         return cls(scene=scene, particles=int(particles), stages=stages, **kw)
 
 
+#: statuses any scene's run can end with (runner and generic verdicts), with their meaning;
+#: a scene adds its own in :attr:`Scene.statuses` (the README's status table lists the union,
+#: tests/unit/test_readme_facts.py checks it)
+GENERIC_STATUSES: dict[str, str] = {
+    "steady": "flow steady (drift and fluctuation of the centre-of-mass speed below protocol.steady_*); averaged",
+    "jammed": "mean speed below protocol's jam speed over the last window; not averaged",
+    "no_steady_state": "still drifting or fluctuating at t_flow_max; the reason gives the numbers",
+    "unstable": "a guard stopped LAMMPS (overlap, speed, lost atoms, dangerous neighbour builds)",
+    "completed": "a fixed schedule ran to its end (scenes without a steady-state test); the analysis may relabel it",
+    "unknown": "no flow segment ran, so there is nothing to judge",
+}
+
+
 class Scene:
     """Base class of a scene declaration; a scene package sets ``SCENE = MyScene()``.
 
@@ -195,6 +208,8 @@ class Scene:
     knobs: ClassVar[dict[str, Knob]] = {}
     #: statuses of :meth:`flow_verdict` that end the flow stage at once (besides steady and jammed)
     stop_statuses: ClassVar[tuple[str, ...]] = ()
+    #: statuses particular to this scene (name -> meaning), besides :data:`GENERIC_STATUSES`
+    statuses: ClassVar[dict[str, str]] = {}
     #: how its particle snapshots look (None: the scene writes none, whatever its effects say)
     snapshot: ClassVar[SnapshotView | None] = None
 

@@ -58,6 +58,10 @@ class ChuteScene(Scene):
     table_sort = ("theta",)
     # a bed that stopped will not start again: end the flow stage at once
     stop_statuses = ("arrested",)
+    statuses = {
+        "arrested": "the bed stopped: mean u_cm below protocol.arrest_speed over the last window (the paper's regime below theta_stop); not averaged",
+        "accelerating": "u_cm still rising by more than steady_rel_tol per window with little scatter (the paper's regime above ~26 deg); not averaged",
+    }
     headline = (
         # the ratio itself (about 1), not its error: the study compares relative differences
         ("stress_ratio_over_tan", "bulk -sigma_xz/sigma_zz / tan(theta)"),

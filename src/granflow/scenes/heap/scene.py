@@ -18,6 +18,9 @@ TABLES = ("per_x", "profile", "collapse", "surface", "alpha_t", "rise_by_x", "ph
 
 class HeapScene(Scene):
     name = "heap"
+    statuses = {
+        "unsteady": "the feed missed its rate by more than protocol.feed_rate_tol, or the rise velocity varies by 25 % or more along the heap",
+    }
     #: seen through the front side wall (-y): feed on the left, end wall on the right; colour by
     #: species; no image of the init stage (the box is still empty)
     snapshot = SnapshotView(color="type", view=(90.0, -90.0), size=(900, 500), zoom=2.2, stages=("flow", "average"))

@@ -20,6 +20,10 @@ TABLES = ("flow", "fields", "contact")
 
 class SiloScene(Scene):
     name = "silo"
+    statuses = {
+        "clogged": "outflow below protocol.clog_rate_fraction of the Beverloo estimate in a segment after the first: an arch blocks the orifice",
+        "unsteady": "the discharge was analysed but no steady window of the outflow W_f was found",
+    }
     #: a cut through the axis (particles within 8 % of the diameter of the plane y = 0), seen from
     #: -y: the converging flow above the orifice at the bottom; colour by speed
     snapshot = SnapshotView(color="speed", view=(90.0, -90.0), center=(0.5, 0.5, 0.38), size=(600, 900), zoom=2.4,

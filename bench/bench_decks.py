@@ -152,7 +152,15 @@ def strip_output(text: str) -> str:
     """The deck without dumps and restart files (``dump``, ``dump_modify``, ``undump``,
     ``restart``, ``write_restart``, ``write_data``, ``write_dump``)."""
     drop = {"dump", "dump_modify", "undump", "restart", "write_restart", "write_data", "write_dump"}
-    return "".join(l for l in text.splitlines(keepends=True) if (_command(l) or [""])[0] not in drop)
+    kept, dropping = [], False
+    for line in text.splitlines(keepends=True):
+        if not dropping:
+            dropping = (_command(line) or [""])[0] in drop
+        if not dropping:
+            kept.append(line)
+        # a command continues on the next line after a trailing & (the snapshot's write_dump image)
+        dropping = dropping and line.split("#", 1)[0].rstrip().endswith("&")
+    return "".join(kept)
 
 
 def set_run(text: str, steps: int, warmup: int = 0) -> str:

@@ -86,6 +86,21 @@ def test_strip_output_drops_dumps_and_restarts_only():
     assert "# a dump of the wall force would go here" in bd.strip_output(CHANNEL)
 
 
+def test_strip_output_drops_the_continuation_lines_of_a_dropped_command():
+    """The snapshot's write_dump image spans lines joined by a trailing &: all of them go."""
+    deck = ("variable        snap_speed atom sqrt(vx*vx+vy*vy+vz*vz)\n"
+            "write_dump      all image ${snapshot_file} v_snap_speed diameter &\n"
+            "                view 0.0 0.0 up 0.0 1.0 0.0 center s 0.5 0.5 0.5 &\n"
+            "                modify backcolor white amap min max cf 0.0 3 min blue 0.5 yellow max red\n"
+            "fix             1 all nve/sphere &\n"
+            "                disc\n"
+            "run             1000\n")
+    out = bd.strip_output(deck)
+    assert out.splitlines() == ["variable        snap_speed atom sqrt(vx*vx+vy*vy+vz*vz)",
+                                "fix             1 all nve/sphere &", "                disc",
+                                "run             1000"]
+
+
 def test_set_run_warmup_marker_and_timed_run():
     out = bd.set_run(CHANNEL, 3000, warmup=200)
     runs = heads(out, "run")

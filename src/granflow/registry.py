@@ -210,6 +210,8 @@ class Scene:
     stop_statuses: ClassVar[tuple[str, ...]] = ()
     #: statuses particular to this scene (name -> meaning), besides :data:`GENERIC_STATUSES`
     statuses: ClassVar[dict[str, str]] = {}
+    #: the unit of its simulated time, as figures and snapshots label it
+    time_unit: ClassVar[str] = "simulation units"
     #: how its particle snapshots look (None: the scene writes none, whatever its effects say)
     snapshot: ClassVar[SnapshotView | None] = None
 

@@ -81,7 +81,7 @@ def label(name: str) -> str:
     return what + (f" {int(index)}" if index else "")
 
 
-def compose(case_dir: str | Path, out: str | Path, title: str = "") -> list[str]:
+def compose(case_dir: str | Path, out: str | Path, title: str = "", time_unit: str = "simulation units") -> list[str]:
     """Write ``out`` (PNG): the picked snapshots of ``case_dir`` side by side; returns their segment names.
 
     Raises :class:`SnapshotError` if the case wrote none (e.g. it stopped before its first segment ended).
@@ -113,7 +113,7 @@ def compose(case_dir: str | Path, out: str | Path, title: str = "") -> list[str]
         ax.imshow(pic)
         ax.set_axis_off()
         t = times.get(name)
-        ax.set_title(label(name) + ("" if t is None else f"\nt = {t:.4g} (simulation units)"), fontsize=9)
+        ax.set_title(label(name) + ("" if t is None else f"\nt = {t:.4g} {time_unit}"), fontsize=9)
     if view["color"] == "speed":
         key = "colour: particle speed, blue = slowest, yellow = middle, red = fastest particle of each frame"
     else:

@@ -120,3 +120,12 @@ def test_the_cost_study_writes_no_snapshots():
     assert base["effects"]["snapshots"] == []
     assert registry.get("chute").snapshots_at(base, "demo") is None
     assert registry.get("chute").snapshots_at(scene, "demo") is not None
+
+
+def test_every_scene_names_the_unit_of_its_time():
+    """Snapshot titles give t in the scene's own unit (seconds for the SI scenes), not 'simulation units'."""
+    from granflow import registry
+
+    units = {name: registry.get(name).time_unit for name in registry.scenes()}
+    assert all(u and u != "simulation units" for u in units.values()), units
+    assert units["heap"] == units["silo"] == "s"

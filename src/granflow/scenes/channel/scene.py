@@ -33,6 +33,7 @@ def _or_placeholder(draw):
 class ChannelScene(Scene):
     name = "channel"
     #: seen along the periodic depth z: walls left and right, flow downwards; colour by speed
+    time_unit = "√(d_p/g)"
     snapshot = SnapshotView(color="speed", view=(0.0, 0.0), up=(0.0, 1.0, 0.0), size=(500, 900), zoom=1.0)
     summary = "periodic vertical channel between two flat frictional walls (Debnath, Kesava Rao & Kumaran 2022)"
     paper = "channel_debnath2022.md"

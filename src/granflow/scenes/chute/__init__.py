@@ -28,6 +28,7 @@ class ChuteScene(Scene):
 
     name = "chute"
     #: seen from the side (-y): the flow goes left to right over the rough base; colour by speed
+    time_unit = "√(d/g)"
     snapshot = SnapshotView(color="speed", view=(90.0, -90.0), center=(0.5, 0.5, 0.24), size=(500, 700), zoom=2.2)
     summary = "steady flow down a rough inclined plane: stress ratio tan(theta), weight, Bagnold profile, regimes"
     paper = "Silbert, Ertas, Grest, Halsey, Levine & Plimpton (2001), Phys. Rev. E 64, 051302"

@@ -23,6 +23,7 @@ class HeapScene(Scene):
     }
     #: seen through the front side wall (-y): feed on the left, end wall on the right; colour by
     #: species; no image of the init stage (the box is still empty)
+    time_unit = "s"
     snapshot = SnapshotView(color="type", view=(90.0, -90.0), size=(900, 500), zoom=2.2, stages=("flow", "average"))
     summary = "quasi-2D bounded heap filled from one end, inclined base and end wall (Fan et al. 2013)"
     paper = "heap_fan2013.md"

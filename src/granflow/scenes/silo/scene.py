@@ -26,6 +26,7 @@ class SiloScene(Scene):
     }
     #: a cut through the axis (particles within 8 % of the diameter of the plane y = 0), seen from
     #: -y: the converging flow above the orifice at the bottom; colour by speed
+    time_unit = "s"
     snapshot = SnapshotView(color="speed", view=(90.0, -90.0), center=(0.5, 0.5, 0.38), size=(600, 900), zoom=2.4,
                             slab_y=0.08)
     summary = "3D flat-bottomed cylindrical silo discharging through a circular orifice (Rubio-Largo et al. 2016)"

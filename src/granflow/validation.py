@@ -164,8 +164,14 @@ def case_summary(case_dir: Path) -> dict:
     status = json.loads((case_dir / "run" / "status.json").read_text())
     record = json.loads((case_dir / "params.json").read_text())
     cpu = prov.get("cpu_seconds")
+    # a scene whose runner runs a fixed schedule (completed) labels the case in its analysis
+    scalars_path = case_dir / "analysis" / "scalars.json"
+    analysed = json.loads(scalars_path.read_text()) if scalars_path.exists() else {}
+    final = analysed.get("status") or prov["status"]
     return {
-        "case": prov["case"], "status": prov["status"], "reason": status.get("reason"),
+        "case": prov["case"], "status": final,
+        "reason": (analysed.get("status_reason") if analysed.get("status") else None) or status.get("reason"),
+        "run_status": prov["status"],
         # the commit that finished the run (runs before it was recorded: the record's commit)
         "granflow_commit": status.get("granflow_commit", prov["granflow_commit"]),
         "granflow_dirty": status.get("granflow_dirty", prov["granflow_dirty"]),

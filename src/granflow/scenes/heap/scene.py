@@ -145,7 +145,10 @@ class HeapScene(Scene):
             "bidisperse": len(record["species"]) == 2,
             "W": k["W"], "T": k["T"], "t_c": k["t_c"], "dt": record["dt"], "k_n": record["parameters"]["k_n"],
             "status": verdict if status["status"] == "completed" else status["status"],
-            "status_reason": "; ".join(problems) or status.get("reason"),
+            "status_reason": "; ".join(problems) or (
+                f"the feed delivered {scalars['feed_rate_measured']:.4g} kg/s ({100 * scalars['feed_rate_error']:+.1f} % "
+                f"of the request) and the surface rose uniformly (v_r varies by {100 * scalars['rise_velocity_cv']:.0f} % "
+                f"along the heap, limit 25 %)" if verdict == "steady" else status.get("reason")),
             "max_overlap": status.get("max_overlap"), "dangerous_builds": status.get("dangerous_builds"),
             "matom_step_per_s": status.get("matom_step_per_s"), "loop_seconds": status.get("loop_seconds"),
             "provenance": (f"rung {record['rung']} · W={k['W']:g} m · T={k['T'] * 1e3:g} mm · t_c={k['t_c']:g} s · "

@@ -22,6 +22,16 @@ from .validation import _fmt
 _RST_SPECIAL = "\\`*_|[]<>"
 
 
+#: Snakemake's report centres the page in a full-height flex box, so a page taller than the
+#: window overflows upwards and its top cannot be scrolled to (snakemake/snakemake#3906, open
+#: for images; the same for a long description: this page's title sat 5,200 px above the
+#: window). The page's own style aligns that box to the top; it lives in this page's HTML
+#: only, so the other pages of the report keep Snakemake's layout.
+TOP_ALIGN = [".. raw:: html", "",
+             "   <style>.items-center.justify-center.overflow-auto { align-items: flex-start !important; }</style>",
+             ""]
+
+
 def rst_text(value) -> str:
     """One table cell: a single line with reStructuredText's inline markup escaped."""
     text = " ".join(str(value).split())
@@ -49,7 +59,7 @@ def overview_rst(summaries: list[dict], rung: str) -> str:
                 if isinstance(c.get("cpu_hours"), (int, float)) and math.isfinite(c["cpu_hours"]))
     statuses = Counter(c.get("status") or "unknown" for _, c in cases)
     title = f"granflow campaign at rung {rung}"
-    lines = ["{% raw %}", title, "=" * len(title), ""]
+    lines = ["{% raw %}", *TOP_ALIGN, title, "=" * len(title), ""]
     lines += [rst_text(
         f"What ran: {len(summaries)} scene(s), {len(cases)} case(s), {hours:.2f} CPU-hours of LAMMPS "
         f"(all ranks, user + system). How the cases ended: "

@@ -81,3 +81,17 @@ def test_the_default_campaign_builds_the_front_page(tmp_path):
     assert out.returncode == 0, out.stderr[-2000:] + out.stdout[-2000:]
     assert f"{tmp_path}/report/overview_demo.rst" in out.stdout
     assert "rule overview:" in out.stdout
+
+
+def test_page_starts_at_its_top_in_snakemakes_report():
+    """A page taller than the window must not overflow upwards (snakemake#3906): the page aligns
+    its container to the top, in raw HTML inside the {% raw %} block, before the title."""
+    text = overview_rst(SUMMARIES, "demo")
+    head = text.split("granflow campaign at rung demo")[0]
+    assert head.startswith("{% raw %}")
+    assert ".. raw:: html" in head and "align-items: flex-start" in head
+    import docutils.core
+
+    html = docutils.core.publish_parts(text.replace("{% raw %}", "").replace("{% endraw %}", ""),
+                                       writer_name="html")["body"]
+    assert "<style>" in html and "flex-start" in html

@@ -85,3 +85,36 @@ def test_a_record_over_the_size_limit_is_refused(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match="validation record of toy is .* MB: allowed"):
         validation.write_record("toy", "validation", ValidationResult([], profiles={"big": big}), cases,
                                 tmp_path, tmp_path / "validation" / "toy")
+
+
+def _fixed_schedule_case(tmp_path, analysed: dict | None):
+    import json as _json
+
+    case = tmp_path / "R~4.5"
+    (case / "run").mkdir(parents=True)
+    (case / "run" / "status.json").write_text(_json.dumps(
+        {"status": "completed", "reason": "fixed schedule ran to its end", "max_overlap": 0.01}))
+    (case / "params.json").write_text(_json.dumps({"n_particles": 100}))
+    (case / "provenance.json").write_text(_json.dumps(
+        {"case": {"R": 4.5}, "status": "completed", "granflow_commit": "abc", "granflow_dirty": False,
+         "lammps_version": "LAMMPS (22 Jul 2025)", "ranks": 1, "cpu_seconds": 36.0, "wall_seconds": 40.0}))
+    if analysed is not None:
+        (case / "analysis").mkdir()
+        (case / "analysis" / "scalars.json").write_text(_json.dumps(analysed))
+    return case
+
+
+def test_case_summary_shows_the_analysed_verdict_of_a_fixed_schedule_run(tmp_path):
+    from granflow.validation import case_summary
+
+    case = _fixed_schedule_case(tmp_path, {"status": "steady", "status_reason": "a steady outflow window"})
+    s = case_summary(case)
+    assert (s["status"], s["reason"], s["run_status"]) == ("steady", "a steady outflow window", "completed")
+    assert s["cpu_hours"] == 0.01 and s["particles"] == 100
+
+
+def test_case_summary_keeps_the_runner_status_without_an_analysis(tmp_path):
+    from granflow.validation import case_summary
+
+    s = case_summary(_fixed_schedule_case(tmp_path / "b", None))
+    assert (s["status"], s["reason"], s["run_status"]) == ("completed", "fixed schedule ran to its end", "completed")

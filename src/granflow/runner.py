@@ -27,6 +27,7 @@ import re
 import resource
 import shlex
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -358,9 +359,8 @@ class CaseRunner:
                         if line:
                             log(line)
             finally:
-                if proc.poll() is None:  # interrupted (Ctrl-C, a signal to the runner): stop LAMMPS too
-                    proc.kill()
-                    proc.wait()
+                if proc.poll() is None:  # interrupted (Ctrl-C, SIGTERM to the runner): stop LAMMPS too
+                    stop(proc)
         self._record_usage(name, before, time.time() - t0)
         text = (log_path.read_text(errors="replace") if log_path.exists() else "") + "\n" + \
             screen_path.read_text(errors="replace")
@@ -558,9 +558,46 @@ def slurm_allocation() -> dict | None:
             "partition": os.environ.get("SLURM_JOB_PARTITION")}
 
 
+#: seconds LAMMPS's launcher gets to stop its ranks after SIGTERM before it is killed
+STOP_GRACE_SECONDS = 10.0
+
+
+def stop(proc: subprocess.Popen, grace: float = STOP_GRACE_SECONDS) -> None:
+    """Stop a running LAMMPS launch: SIGTERM (mpirun passes it to its ranks), SIGKILL after ``grace`` s.
+
+    SIGKILL alone would stop the launcher but leave its ranks running and writing into
+    ``run/`` (seen with the wheel's mpirun), where a rerun would meet them.
+    """
+    proc.terminate()
+    try:
+        proc.wait(timeout=grace)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+class Terminated(KeyboardInterrupt):
+    """The runner got SIGTERM (a scheduler's or a user's kill): raised so that LAMMPS is stopped too."""
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated(f"signal {signum}")
+
+
 def run_case(case_dir: str | Path, nprocs: int = 1, launcher: str | None = None) -> dict:
     """Run (or resume) the case in ``case_dir`` on ``nprocs`` ranks; see :class:`CaseRunner`.
 
     ``launcher`` replaces the default mpirun (see :func:`launcher_argv`), e.g. ``srun --mpi=pmi2``.
+    While it runs, SIGTERM to this process stops the running LAMMPS segment as Ctrl-C does
+    (its log stays; a rerun resumes after the last complete segment), instead of ending the
+    runner alone and leaving LAMMPS running.
     """
-    return CaseRunner(case_dir, nprocs, tools=Tools.default(launcher)).run()
+    import threading
+
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _raise_terminated) if main else None
+    try:
+        return CaseRunner(case_dir, nprocs, tools=Tools.default(launcher)).run()
+    finally:
+        if main:
+            signal.signal(signal.SIGTERM, previous)

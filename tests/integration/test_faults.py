@@ -61,6 +61,48 @@ def test_killed_run_resumes_and_agrees(channel_scene, tmp_path):
     assert (diff <= tol).all(), pd.DataFrame({"x": a["x"], "diff": diff, "tol": tol})
 
 
+def _processes_reading(path: Path) -> list[int]:
+    """PIDs whose command line names ``path`` (LAMMPS ranks and launchers of that case)."""
+    pids = []
+    for proc in Path("/proc").iterdir():
+        if proc.name.isdigit():
+            try:
+                if str(path) in (proc / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace"):
+                    pids.append(int(proc.name))
+            except OSError:
+                pass
+    return pids
+
+
+def test_sigterm_to_the_runner_alone_stops_lammps_too(channel_scene, tmp_path):
+    """A kill of the runner's PID only (not its process group) must not leave LAMMPS running in run/."""
+    scene = two_segment_scene(channel_scene)
+    scene["rungs"]["smoke"].update(t_flow_max=200.0, t_segment=200.0)  # one long flow segment
+    render_case(scene, "smoke", tmp_path, {"phi_mean": 0.58})
+    proc = subprocess.Popen([str(BIN / "granflow"), "run", str(tmp_path), "--np", "1"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True, text=True)
+    log = tmp_path / "run" / "logs" / "flow_001.log"
+    deadline = time.time() + 300
+    while not log.exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    assert log.exists(), "the run never reached its flow segment"
+    time.sleep(1.0)
+    lammps = [pid for pid in _processes_reading(tmp_path / "flow.lmp") if pid != proc.pid]
+    assert lammps, "no LAMMPS process of the case was found while it ran"
+    os.kill(proc.pid, signal.SIGTERM)  # the runner alone
+    proc.wait(timeout=60)
+    err = proc.stderr.read()
+    assert proc.returncode == 130, err
+    assert "a rerun resumes after the last complete segment" in err
+    time.sleep(0.5)
+    left = _processes_reading(tmp_path / "flow.lmp")
+    for pid in left:  # never leave them running, whatever the verdict
+        os.kill(pid, signal.SIGKILL)
+    assert not left, "LAMMPS still ran after the runner was terminated"
+    assert log.exists(), "the killed segment's log is kept"
+    assert not (tmp_path / "run" / "flow_001.restart").exists()
+
+
 def test_truncated_dump_fails_naming_file_and_frame(channel_scene, tmp_path):
     scene = two_segment_scene(channel_scene)
     render_case(scene, "smoke", tmp_path, {"phi_mean": 0.58})

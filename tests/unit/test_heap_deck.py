@@ -96,6 +96,21 @@ def test_bidisperse_deck_pours_two_types(heap_scene, tmp_path):
     assert len(re.findall(r"^fix +pour\d all pour \d+ [12] ", flow, re.M)) == 2
 
 
+@pytest.mark.parametrize("mixture, multi", [("mono1.5", False), ("bi1-2", True), ("bi1-3", True)])
+def test_neighbour_binning_follows_the_size_ratio(heap_scene, tmp_path, mixture, multi):
+    """Per-species neighbour bins (and ghost cutoffs) from a size ratio of 1.5: bench-measured faster there."""
+    import json
+
+    render_case(heap_scene, "demo", tmp_path, {"mixture": mixture, "feed_rate": 0.02})
+    for stage in ("flow", "average"):
+        deck = (tmp_path / f"{stage}.lmp").read_text()
+        assert bool(re.search(r"^neighbor +\$\{skin\} multi$", deck, re.M)) == multi
+        assert bool(re.search(r"^comm_modify +mode multi$", deck, re.M)) == multi
+        assert bool(re.search(r"^neighbor +\$\{skin\} bin$", deck, re.M)) == (not multi)
+    record = json.loads((tmp_path / "params.json").read_text())
+    assert record["neighbor_multi"] == multi and (record["size_ratio"] >= 1.5) == multi
+
+
 @pytest.mark.lammps
 @pytest.mark.parametrize("rung", ["smoke", "demo", "study", "paper", "validation"])
 def test_every_rung_passes_skiprun(heap_scene, tmp_path, skiprun, replace_once, rung):

@@ -184,6 +184,14 @@ def steady_time_estimate(scene: dict, rung: dict, case: dict, sp: list[dict], ge
     return fall + rho * phi * (wedge + layer) / case["feed_rate"]
 
 
+#: largest over smallest diameter from which the deck bins neighbours per species
+#: (``neighbor multi``, ``comm_modify mode multi``). bench/bench_decks.py on 2 ranks: the 1/2 mm
+#: validation heap (20.7k particles, ratio 2.1) ran 0.59 and 0.87 of the multi variant in two
+#: session-26 runs (3.0 against 5.1, 3.6 against 4.1 Matom-step/s); the mono 1.5 mm demo heap
+#: (ratio 1.2) the same either way (6.39 against 6.32).
+MULTI_NEIGHBOR_RATIO = 1.5
+
+
 def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tuple[list[Param], dict]:
     """All numbers of a heap deck, and the template context besides them."""
     case = dict(scene["case"], **(case or {}))
@@ -193,6 +201,7 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
     eff, proto = scene["effects"], scene["protocol"]
     d_min = min(s["d_lo"] for s in sp)
     d_ref = sp[-1]["d"]
+    size_ratio = max(s["d_hi"] for s in sp) / d_min
 
     v_max = 1.5 * math.sqrt(2 * G * (geo["z_top"] - geo["z_bottom"]))  # free fall over the box, with margin
     skin = scene["contact"]["neighbor_skin"] * d_ref
@@ -254,6 +263,7 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         "units_note": "si: metres, kilograms, seconds",
         "effects": eff,
         "ntypes": len(sp),
+        "neighbor_multi": size_ratio >= MULTI_NEIGHBOR_RATIO,
         "pours": pours,
         "dump_columns": list(eff["dump_columns"]),
     }
@@ -271,6 +281,8 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         "n_particles_estimate": n_particles_est,
         "dt": dt,
         "t_segment": t_segment,
+        "size_ratio": size_ratio,
+        "neighbor_multi": context["neighbor_multi"],
         "dump_columns": context["dump_columns"],
         "density": scene["particles"]["density"],
         "geometry": {"W": rung["W"], "T": rung["T"], "theta_deg": scene["geometry"]["theta_deg"],

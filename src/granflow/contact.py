@@ -33,19 +33,74 @@ class Contact:
     e_n: float
 
 
+#: The contact laws a scene file may name (``contact.model``, or a rung's ``contact_model``), and
+#: what each one is. Every law writes the walls with LAMMPS's ``granular`` wall syntax
+#: (``wall/gran granular hooke ... tangential linear_history``): the classic
+#: ``wall/gran hooke/history`` of the pinned LAMMPS (22 Jul 2025) gains energy when its
+#: tangential damping is zero (a sliding sphere never settles into rolling; fixed upstream in 2026).
+CONTACT_LAWS = {
+    "hooke/history": "one linear spring k_n and one damping rate xi_n for every pair and wall "
+                     "(LAMMPS pair gran/hooke/history; the cheapest): each pair's t_c and e_n follow "
+                     "from its reduced mass",
+    "hooke/pair_time": "a linear spring per type pair with the same contact time t_c and restitution e_n "
+                       "for every pair and wall (k_n proportional to m_eff; Fan et al. 2013): LAMMPS pair "
+                       "granular, damping coeff_restitution",
+    "hooke/pair_eq10": "a linear spring per type pair whose k_n follows the silo paper's eq. 10 from the "
+                       "pair's R_eff and m_eff, damping for e_n (eq. 11; Rubio-Largo et al. 2016): LAMMPS "
+                       "pair granular, damping coeff_restitution",
+}
+#: the law of a ContactModel with one spring for all pairs
+SINGLE_LAW = "hooke/history"
+
+
+@dataclass(frozen=True)
+class TypePair:
+    r"""LAMMPS coefficients of one atom-type pair, or of one type against every wall (``j is None``).
+
+    ``k_n``, ``k_t`` in force/length; the damping is LAMMPS's ``coeff_restitution``:
+    :math:`\eta_n = \sqrt{4 m_{eff} k_n/(1 + \pi^2/\ln^2 e_n)}` from each contact's own
+    reduced mass, so every contact of the pair has restitution ``e_n`` exactly;
+    ``t_c`` is the contact time at the pair's mean reduced mass ``m_eff``.
+    """
+
+    i: int
+    j: int | None
+    k_n: float
+    e_n: float
+    k_t: float
+    m_eff: float
+
+    @property
+    def t_c(self) -> float:
+        return restitution_contact_time(self.k_n, self.m_eff, self.e_n)
+
+    @property
+    def key(self) -> str:
+        """The suffix of this pair's deck variables: ``1_2`` for types 1-2, ``w1`` for type 1-wall."""
+        return f"w{self.i}" if self.j is None else f"{self.i}_{self.j}"
+
+
 @dataclass
 class ContactModel:
-    """Derived contact parameters of a scene at one rung.
+    r"""Derived contact parameters of a scene at one rung.
 
     Attributes
     ----------
     k_n, k_t : float
-        Normal and tangential stiffness (force/length).
+        Normal and tangential stiffness (force/length). For a per-pair law, the smallest
+        type pair's (the overlap guard's F/k_n is then an upper bound of the overlap).
     xi_n, xi_t : float
-        Normal and tangential damping rates (1/time), multiplied by m_eff in LAMMPS.
+        Normal and tangential damping rates (1/time), multiplied by m_eff in LAMMPS
+        (single law; a per-pair law damps each pair for its ``e_n``).
     friction, wall_friction : float
     contacts : list of Contact
         Every species pair and every species-wall contact.
+    law : str
+        A key of :data:`CONTACT_LAWS`.
+    type_pairs : list of TypePair
+        A per-pair law's coefficients: every type pair ``i <= j`` and every type against the walls.
+    xi_t_ratio : float
+        Tangential over normal damping (LAMMPS granular ``linear_history``'s :math:`x_{\gamma,t}`).
     """
 
     k_n: float
@@ -55,11 +110,31 @@ class ContactModel:
     friction: float
     wall_friction: float
     contacts: list[Contact] = field(default_factory=list)
+    law: str = SINGLE_LAW
+    type_pairs: list[TypePair] = field(default_factory=list)
+    xi_t_ratio: float = 0.0
 
     @property
     def stiffest(self) -> Contact:
         """The contact with the shortest duration, which limits the time step."""
         return min(self.contacts, key=lambda c: c.t_c)
+
+    @property
+    def pair_style(self) -> str:
+        """The LAMMPS pair style of the law (the cost model prices it)."""
+        return "gran/hooke/history" if self.law == SINGLE_LAW else "granular"
+
+    @property
+    def per_pair(self) -> bool:
+        return self.law != SINGLE_LAW
+
+    def record(self) -> dict:
+        """What params.json says of the law: its name, pair style, meaning and every type pair."""
+        return {"law": self.law, "pair_style": self.pair_style, "description": CONTACT_LAWS[self.law],
+                "xi_t_over_xi_n": self.xi_t_ratio,
+                "type_pairs": [{"types": [p.i, "wall" if p.j is None else p.j], "k_n": p.k_n, "k_t": p.k_t,
+                                "e_n": p.e_n, "m_eff_mean": p.m_eff, "t_c_mean": p.t_c}
+                               for p in self.type_pairs]}
 
 
 def sphere_mass(d: float, density: float) -> float:
@@ -77,6 +152,44 @@ def damping_for_restitution(k_n: float, m_eff: float, e_n: float) -> float:
     ln_e = math.log(e_n)
     t_c = math.sqrt(m_eff * (math.pi**2 + ln_e**2) / k_n)
     return -2.0 * ln_e / t_c
+
+
+def restitution_contact_time(k_n: float, m_eff: float, e_n: float) -> float:
+    r"""Duration of a linear contact damped for restitution ``e_n`` (LAMMPS ``coeff_restitution``).
+
+    .. math::
+
+        t_c = \sqrt{\frac{m_{eff}(\pi^2 + \ln^2 e_n)}{k_n}}
+    """
+    return math.sqrt(m_eff * (math.pi**2 + math.log(e_n) ** 2) / k_n)
+
+
+def contact_law(contact: dict, rung: dict) -> str:
+    """The law a rung uses: its ``contact_model`` if it names one, else the scene's ``contact.model``."""
+    return rung.get("contact_model") or contact["model"]
+
+
+def per_pair_model(contact: dict, law: str, type_pairs: list[TypePair], contacts: list[Contact]) -> ContactModel:
+    """The ContactModel of a per-pair law: ``type_pairs`` carry the coefficients, ``contacts`` every
+    contact whose t_c and e_n the record lists (and whose shortest t_c limits the time step).
+
+    ``k_n``/``k_t`` are the smallest type pair's (see :class:`ContactModel`); ``xi_n`` is the
+    damping rate of the reference contact of the single law, kept for the record only.
+    """
+    if law not in CONTACT_LAWS or law == SINGLE_LAW:
+        raise ValueError(f"contact law {law!r} is not a per-pair law: allowed "
+                         f"{sorted(k for k in CONTACT_LAWS if k != SINGLE_LAW)}")
+    soft = min((p for p in type_pairs if p.j is not None), key=lambda p: p.k_n)
+    ratio = contact["xi_t_over_xi_n"]
+    return ContactModel(k_n=soft.k_n, k_t=soft.k_t, xi_n=0.0, xi_t=0.0, friction=contact["friction"],
+                        wall_friction=contact["wall_friction"], contacts=contacts, law=law,
+                        type_pairs=type_pairs, xi_t_ratio=ratio)
+
+
+def restitution_contacts(pairs: list[tuple[str, float, float, float]]) -> list[Contact]:
+    """Contacts ``(name, k_n, m_eff, e_n)`` of a per-pair law: each keeps ``e_n`` exactly and lasts
+    :func:`restitution_contact_time`."""
+    return [Contact(name, m_eff, restitution_contact_time(k_n, m_eff, e_n), e_n) for name, k_n, m_eff, e_n in pairs]
 
 
 def contact_time(k_n: float, m_eff: float, xi_n: float) -> tuple[float, float]:
@@ -110,7 +223,8 @@ def _model(contact: dict, k_n: float, xi_n: float, contacts: list[Contact]) -> C
     """The ContactModel of a scene's ``contact`` block at stiffness k_n and damping xi_n."""
     return ContactModel(k_n=k_n, k_t=contact["kt_over_kn"] * k_n, xi_n=xi_n,
                         xi_t=contact["xi_t_over_xi_n"] * xi_n, friction=contact["friction"],
-                        wall_friction=contact["wall_friction"], contacts=contacts)
+                        wall_friction=contact["wall_friction"], contacts=contacts,
+                        xi_t_ratio=contact["xi_t_over_xi_n"])
 
 
 def build_contact_model(scene: dict, rung: dict) -> ContactModel:

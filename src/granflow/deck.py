@@ -78,6 +78,35 @@ def shared_si_params(model: ContactModel, skin: float, neigh: dict, guards: dict
     ]
 
 
+def contact_law_params(model: ContactModel) -> list[Param]:
+    """Deck variables of the contact law that the shared macros (``include/granular.lmp.j2``) read.
+
+    Every law: ``x_t``, the tangential damping as a fraction of the normal one. A per-pair law
+    also: ``kn_<key>``, ``kt_<key>``, ``en_<key>`` of every type pair (``<key>`` = ``i_j``) and
+    every type against the walls (``w<i>``).
+    """
+    out = [Param("x_t", round(model.xi_t_ratio, 12), "tangential damping / normal damping (granular x_gamma,t)")]
+    for p in model.type_pairs:
+        what = f"types {p.i}-{p.j}" if p.j is not None else f"type {p.i}-wall"
+        out += [Param(f"kn_{p.key}", _sig(p.k_n), f"normal stiffness, {what} (t_c {p.t_c:.4g} at mean m_eff)"),
+                Param(f"kt_{p.key}", _sig(p.k_t), f"tangential stiffness, {what}"),
+                Param(f"en_{p.key}", _number(p.e_n), f"normal restitution, {what}")]
+    return out
+
+
+def contact_law_context(model: ContactModel) -> dict:
+    """Template context of the contact macros: the law and its type pairs (structure only; numbers
+    are the deck variables of :func:`contact_law_params`)."""
+    return {"law": model.law, "per_pair": model.per_pair, "description": model.record()["description"],
+            "pairs": [{"i": p.i, "j": p.j, "key": p.key} for p in model.type_pairs if p.j is not None],
+            "walls": [{"type": p.i, "key": p.key} for p in model.type_pairs if p.j is None]}
+
+
+def _sig(x: float) -> float:
+    """A float rounded to 10 significant digits (deck variables)."""
+    return float(f"{_number(x):.10g}")
+
+
 def record_head(scene_name: str, rung_name: str, case: dict, rung: dict, params: list[Param],
                 model: ContactModel, schedule: str = "fixed") -> dict:
     """The first keys of every parameter record: what ran, at which rung, with which numbers and contacts."""
@@ -89,6 +118,7 @@ def record_head(scene_name: str, rung_name: str, case: dict, rung: dict, params:
         "schedule": schedule,
         "parameters": {prm.name: prm.value for prm in params},
         "contacts": [{"name": c.name, "m_eff": c.m_eff, "t_c": c.t_c, "e_n": c.e_n} for c in model.contacts],
+        "contact_law": model.record(),
     }
 
 

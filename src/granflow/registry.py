@@ -297,7 +297,8 @@ class Scene:
         n_flow, n_average = int(record.get("n_flow_segments", 0)), int(record.get("n_average_segments", 0))
         return Workload.constant(
             self.name, n, {"init": (init, 1), "flow": (n_flow * seg, n_flow), "average": (n_average * seg, n_average)},
-            pair_style="granular" if "granular" in styles else (styles[0] if styles else "gran/hooke/history"))
+            pair_style=record.get("contact_law", {}).get("pair_style")
+            or ("granular" if "granular" in styles else (styles[0] if styles else "gran/hooke/history")))
 
     def simulate_ranks(self, rung: str, cores: int) -> int:
         """MPI ranks of one run: 1 for the small rungs (cases run side by side), all cores above."""

@@ -93,7 +93,8 @@ def test_bidisperse_deck_pours_two_types(heap_scene, tmp_path):
     render_case(heap_scene, "demo", tmp_path, {"mixture": "bi1-2", "feed_rate": 0.02})
     flow = (tmp_path / "flow.lmp").read_text()
     assert "create_box      2 box" in (tmp_path / "init.lmp").read_text()
-    assert len(re.findall(r"^fix +pour\d all pour \d+ [12] ", flow, re.M)) == 2
+    # each species pours into its own group (t1, t2), which per-type walls act on
+    assert len(re.findall(r"^fix +pour(\d) t\1 pour \d+ \1 ", flow, re.M)) == 2
 
 
 @pytest.mark.parametrize("mixture, multi", [("mono1.5", False), ("bi1-2", True), ("bi1-3", True)])

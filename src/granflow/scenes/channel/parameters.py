@@ -10,6 +10,8 @@ import math
 from granflow.config import check_rung
 from granflow.contact import build_contact_model, sphere_mass
 from granflow.deck import (
+    contact_law_context,
+    contact_law_params,
     SPIN_COLUMNS,
     STRESS_COLUMNS,
     Param,
@@ -97,6 +99,7 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         Param("k_t", round(model.k_t, 9), "tangential stiffness k_t = kt_over_kn k_n"),
         Param("xi_n", round(model.xi_n, 9), f"normal damping rate (x m_eff): e_n = {scene['contact']['e_n']} for a d_p pair"),
         Param("xi_t", round(model.xi_t, 9), "tangential damping rate xi_t = xi_t_over_xi_n xi_n"),
+        *contact_law_params(model),
         Param("friction", model.friction, "particle-particle sliding friction mu_p"),
         Param("wall_friction", model.wall_friction, "particle-wall sliding friction"),
         Param("fill_friction", scene["protocol"]["fill_friction"], "friction while the bed settles"),
@@ -123,6 +126,7 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
     if eff["per_atom_stress"]:
         columns += STRESS_COLUMNS
     context = {
+        "contact": contact_law_context(model),
         "scene": "channel",
         "rung": rung_name,
         "units_note": "lj: length d_p, mass m_p, time sqrt(d_p/g)",
@@ -141,6 +145,7 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         "contacts": [
             {"name": c.name, "m_eff": c.m_eff, "t_c": c.t_c, "e_n": c.e_n} for c in model.contacts
         ],
+        "contact_law": model.record(),
         "n_flow_segments": max(1, math.ceil(rung["t_flow_max"] / rung["t_segment"] - 1e-9)),
         "n_average_segments": max(1, math.ceil(rung["t_average"] / rung["t_segment"] - 1e-9)),
         "dt": dt,

@@ -17,7 +17,8 @@ from pathlib import Path
 
 from granflow.config import ConfigError, check_rung
 from granflow.contact import Contact, build_contact_model, contact_time, sphere_mass
-from granflow.deck import STRESS_COLUMNS, Param, StepClock, _number, rain_lattice, record_head, time_step
+from granflow.deck import (STRESS_COLUMNS, Param, StepClock, _number, contact_law_context, contact_law_params,
+                           rain_lattice, record_head, time_step)
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
 #: where the deck template lives (this package) and the shared includes
@@ -104,6 +105,7 @@ def chute_parameters(scene: dict, rung_name: str, case: dict | None = None) -> t
         Param("k_t", round(model.k_t, 9), "tangential stiffness k_t = kt_over_kn k_n"),
         Param("xi_n", round(model.xi_n, 9), f"normal damping rate (x m_eff): e_n = {scene['contact']['e_n']:.4g} for a pair"),
         Param("xi_t", round(model.xi_t, 9), "tangential damping rate xi_t = xi_t_over_xi_n xi_n"),
+        *contact_law_params(model),
         Param("friction", model.friction, "sliding friction mu"),
         Param("t_c_min", round(model.stiffest.t_c, 9), f"shortest contact time ({model.stiffest.name}), sqrt(d/g)"),
         Param("dt", round(dt, 10), f"time step = {dt / model.stiffest.t_c:.4g} t_c_min"),
@@ -127,6 +129,7 @@ def chute_parameters(scene: dict, rung_name: str, case: dict | None = None) -> t
     if eff["per_atom_stress"]:
         columns += STRESS_COLUMNS
     context = {
+        "contact": contact_law_context(model),
         "scene": "chute",
         "rung": rung_name,
         "units_note": "lj: length d, mass m, time sqrt(d/g)",

@@ -20,8 +20,10 @@ from __future__ import annotations
 import math
 
 from granflow.config import check_rung
-from granflow.contact import ContactModel, contact_model_for_time
-from granflow.deck import Param, StepClock, _number, record_head, shared_si_params, time_step
+from granflow.contact import (ContactModel, TypePair, contact_law, contact_model_for_time, per_pair_model,
+                              restitution_contacts, sphere_mass)
+from granflow.deck import (Param, StepClock, _number, contact_law_context, contact_law_params, record_head,
+                           shared_si_params, time_step)
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
 #: gravitational acceleration, m/s^2
@@ -51,6 +53,49 @@ def species(scene: dict, mixture: str) -> list[dict]:
 
 
 def contact_model(scene: dict, rung: dict, sp: list[dict]) -> ContactModel:
+    """The contact law of the rung (``contact.model`` or the rung's ``contact_model``):
+    :func:`single_spring_model` or :func:`pair_time_model` (the paper's)."""
+    law = contact_law(scene["contact"], rung)
+    if law == "hooke/pair_time":
+        return pair_time_model(scene, rung, sp)
+    return single_spring_model(scene, rung, sp)
+
+
+def pair_time_model(scene: dict, rung: dict, sp: list[dict]) -> ContactModel:
+    r"""The paper's law: every pair and wall contact lasts ``t_c`` and restitutes ``e`` (Fan et al. 2013, §2.1).
+
+    The paper sets, per contact, :math:`\gamma_n = -\ln e/t_c` (its damping force
+    :math:`2\gamma_n m_{eff} v_n`) and :math:`k_n = m_{eff}[(\pi/t_c)^2 + \gamma_n^2]`, so
+    :math:`k_n \propto m_{eff}`. LAMMPS's ``pair granular`` takes coefficients per *type* pair:
+    each type pair gets the k_n of its species' mean masses (a wall: :math:`m_{eff} = m_i`),
+    :math:`k_t = (k_t/k_n)\,k_n`, and ``damping coeff_restitution``, which damps every
+    contact from its own :math:`m_{eff}`: e is the paper's for every contact, exactly.
+    Inside a species the diameters spread by ``size_spread`` (uniform), so a contact of two
+    particles of one species lasts :math:`t_c\sqrt{m_{eff}/\langle m_{eff}angle}`: from
+    the two smallest to the two largest of a species, 0.71 to 1.25 t_c at the paper's
+    spread 0.1 (the paper's per-contact k_n keeps t_c for all). The listed contacts are
+    these extremes, so the shortest limits the time step.
+    """
+    c, rho = scene["contact"], scene["particles"]["density"]
+    t_c, e = rung["t_c"], c["e_n"]
+    k_of = lambda m_eff: m_eff * ((math.pi / t_c) ** 2 + (math.log(e) / t_c) ** 2)  # noqa: E731
+    pairs, contacts = [], []
+    for a in sp:
+        for b in sp[a["type"] - 1:]:
+            m_eff = a["mean_mass"] * b["mean_mass"] / (a["mean_mass"] + b["mean_mass"])
+            k = k_of(m_eff)
+            pairs.append(TypePair(a["type"], b["type"], k, e, c["kt_over_kn"] * k, m_eff))
+            for la, lb in (("d_lo", "d_lo"), ("d_hi", "d_hi")):
+                ma, mb = sphere_mass(a[la], rho), sphere_mass(b[lb], rho)
+                contacts.append((f"{a[la]:g}-{b[lb]:g} pair", k, ma * mb / (ma + mb), e))
+        k = k_of(a["mean_mass"])
+        pairs.append(TypePair(a["type"], None, k, e, c["kt_over_kn"] * k, a["mean_mass"]))
+        for la in ("d_lo", "d_hi"):
+            contacts.append((f"{a[la]:g}-wall", k, sphere_mass(a[la], rho), e))
+    return per_pair_model(c, "hooke/pair_time", pairs, restitution_contacts(contacts))
+
+
+def single_spring_model(scene: dict, rung: dict, sp: list[dict]) -> ContactModel:
     """One k_n for all pairs, set by t_c of two particles of the largest species' mean diameter.
 
     The paper gives every pair the same t_c (a stiffness proportional to the
@@ -239,11 +284,13 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("seed", int(case["seed"]), "random seed of the feed (each segment adds its index)"),
         Param("d_min", round(d_min, 12), "smallest diameter, m"),
         Param("d_ref", d_ref, "reference diameter (largest species' mean): its pair has contact time t_c, m"),
-        Param("k_n", round(model.k_n, 9), f"normal stiffness: t_c = {rung['t_c']:g} s, e = {scene['contact']['e_n']} for the d_ref pair, N/m"),
+        Param("k_n", round(model.k_n, 9), (f"normal stiffness: t_c = {rung['t_c']:g} s, e = {scene['contact']['e_n']} for the d_ref pair, N/m"
+                                           if not model.per_pair else "softest type pair's normal stiffness (the overlap guard's F/k_n), N/m")),
         Param("xi_n", round(model.xi_n, 9), "normal damping rate -2 ln(e)/t_c (force m_eff xi_n v_n), 1/s"),
         Param("xi_t", round(model.xi_t, 9), "tangential damping rate, 1/s"),
         Param("dt", round(dt, 12), f"time step = {dt / model.stiffest.t_c:.4g} t_c_min, s"),
         *shared_si_params(model, skin, neigh, scene["guards"]),
+        *contact_law_params(model),
         Param("n_feed", nfreq, "steps between insertions (free fall through the feed region)"),
         Param("n_segment", n_segment, "steps per segment (a whole number of insertion periods)"),
         Param("n_thermo", steps(rung["thermo_interval"]), "steps between thermo samples"),
@@ -264,6 +311,7 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         "effects": eff,
         "ntypes": len(sp),
         "neighbor_multi": size_ratio >= MULTI_NEIGHBOR_RATIO,
+        "contact": contact_law_context(model),
         "pours": pours,
         "dump_columns": list(eff["dump_columns"]),
     }

@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from granflow.config import check_rung
-from granflow.contact import Contact, ContactModel, _model, contact_time, damping_for_restitution
-from granflow.deck import Param, StepClock, _number, record_head, shared_si_params
+from granflow.contact import (Contact, ContactModel, TypePair, _model, contact_law, contact_time,
+                              damping_for_restitution, per_pair_model, restitution_contacts)
+from granflow.deck import Param, StepClock, _number, contact_law_context, contact_law_params, record_head, shared_si_params
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
 
@@ -47,13 +48,60 @@ def hertz_stiffness(Y: float, r_i: float, r_j: float, m_i: float, m_j: float, V_
     The paper prints :math:`\sqrt{R_{eff} Y}`; only :math:`\sqrt{R_{eff}}\,Y` has units of
     force/length (the Hertz stiffness :math:`\propto Y\sqrt{R\delta}`), so that is used.
     """
-    R_eff = r_i * r_j / (r_i + r_j)
-    m_eff = m_i * m_j / (m_i + m_j)
+    return eq10_stiffness(Y, r_i * r_j / (r_i + r_j), m_i * m_j / (m_i + m_j), V_c)
+
+
+def eq10_stiffness(Y: float, R_eff: float, m_eff: float, V_c: float) -> float:
+    """The paper's eq. 10 for a contact of effective radius ``R_eff`` and reduced mass ``m_eff``
+    (a sphere against a flat wall: :math:`R_{eff} = r_i`, :math:`m_{eff} = m_i`); see
+    :func:`hertz_stiffness`."""
     s = math.sqrt(R_eff) * Y
     return 16.0 / 15.0 * s * (15.0 * m_eff * V_c**2 / (16.0 * s)) ** 0.2
 
 
 def contact_model(scene: dict, rung: dict) -> tuple[ContactModel, list[dict]]:
+    """The contact law of the rung (``contact.model`` or the rung's ``contact_model``):
+    :func:`single_spring_model` or :func:`eq10_pair_model` (the paper's); and the eq. 10
+    stiffness of every pair (``eq10_pairs``)."""
+    if contact_law(scene["contact"], rung) == "hooke/pair_eq10":
+        return eq10_pair_model(scene, rung)
+    return single_spring_model(scene, rung)
+
+
+def eq10_pair_model(scene: dict, rung: dict) -> tuple[ContactModel, list[dict]]:
+    r"""The paper's law: every pair's k_n from eq. 10 at its own R_eff and m_eff, damped for e_n (eq. 11).
+
+    The seven sizes are seven atom types, so LAMMPS ``pair granular`` per type pair gives
+    every pair of the paper its eq. 10 stiffness exactly; ``damping coeff_restitution``
+    gives each the paper's e_n (eq. 11 is printed without its square root; read as the
+    damping of restitution e_n, which is what it is for) and the tangential damping is
+    ``xi_t_over_xi_n`` of the normal one (paper: :math:`\gamma_t/\gamma_n = 0.1`). A wall
+    is a flat surface of infinite mass: :math:`R_{eff} = r_i`, :math:`m_{eff} = m_i` (not
+    stated in the paper). The frozen rim ring (the last type) acts on each size as a wall.
+    """
+    c = scene["contact"]
+    sp = species(scene)
+    Y, V_c, e = rung["Y_factor"] * c["youngs_modulus"], c["impact_velocity"], c["e_n"]
+    rim = len(sp) + 1
+    pairs, contacts, eq10 = [], [], []
+    for i, a in enumerate(sp):
+        for b in sp[i:]:
+            m_eff = a["mass"] * b["mass"] / (a["mass"] + b["mass"])
+            k = hertz_stiffness(Y, a["radius"], b["radius"], a["mass"], b["mass"], V_c)
+            pairs.append(TypePair(a["type"], b["type"], k, e, c["kt_over_kn"] * k, m_eff))
+            contacts.append((f"r{a['type']}-r{b['type']} pair", k, m_eff, e))
+            eq10.append({"pair": f"r{a['type']}-r{b['type']}", "k_n_eq10": k})
+    for a in sp:
+        k = eq10_stiffness(Y, a["radius"], a["mass"], V_c)
+        pairs.append(TypePair(a["type"], None, k, e, c["kt_over_kn"] * k, a["mass"]))
+        pairs.append(TypePair(a["type"], rim, k, e, c["kt_over_kn"] * k, a["mass"]))
+        contacts.append((f"r{a['type']}-wall", k, a["mass"], e))
+    big = pairs[-2]  # the rim's own pairs are excluded from the neighbour list; any coefficients do
+    pairs.append(TypePair(rim, rim, big.k_n, e, big.k_t, big.m_eff))
+    return per_pair_model(c, "hooke/pair_eq10", pairs, restitution_contacts(contacts)), eq10
+
+
+def single_spring_model(scene: dict, rung: dict) -> tuple[ContactModel, list[dict]]:
     """One k_n for all pairs: eq. 10 for two largest spheres, damping for e_n of that pair.
 
     ``gran/hooke/history`` has one k_n; eq. 10 gives each pair its own, from
@@ -241,11 +289,13 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("gravity", g, "gravitational acceleration, m/s^2"),
         Param("seed", int(case["seed"]), "random seed (re-insertion)"),
         Param("d_min", round(d_min, 12), "smallest diameter, m"),
-        Param("k_n", round(model.k_n, 6), f"normal stiffness: eq. 10 for two r_b spheres at Y = {rung['Y_factor'] * scene['contact']['youngs_modulus']:.4g} Pa, N/m"),
+        Param("k_n", round(model.k_n, 6), (f"normal stiffness: eq. 10 for two r_b spheres at Y = {rung['Y_factor'] * scene['contact']['youngs_modulus']:.4g} Pa, N/m"
+                                           if not model.per_pair else "softest type pair's normal stiffness (the overlap guard's F/k_n), N/m")),
         Param("xi_n", round(model.xi_n, 9), f"normal damping rate (x m_eff): e_n = {scene['contact']['e_n']} for the r_b pair, 1/s"),
         Param("xi_t", round(model.xi_t, 9), "tangential damping rate xi_t = 0.1 xi_n, 1/s"),
         Param("dt", round(dt, 13), f"time step = {rung['dt_fraction']:g} t_c_min, s"),
         *shared_si_params(model, skin, neigh, scene["guards"]),
+        *contact_law_params(model),
         Param("n_settle_min", thermo_multiple(proto["t_settle_min"]), "shortest settling with the orifice closed, steps"),
         Param("n_settle", thermo_multiple(max(proto["t_settle_max"], proto["t_settle_min"])),
               "longest settling with the orifice closed, steps"),
@@ -271,6 +321,7 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         "effects": eff,
         "ntypes": len(sp),
         "rim_type": len(sp) + 1,
+        "contact": contact_law_context(model),
         "species": [{"type": s["type"], "diameter": round(s["diameter"], 12), "mass": s["mass"]} for s in sp],
         "dump_columns": list(eff["dump_columns"]),
         "data_files": {"atoms.data": functools.partial(write_gas_data, gas=gas, sp=sp, box=box,

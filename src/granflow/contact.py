@@ -88,7 +88,7 @@ class ContactModel:
     ----------
     k_n, k_t : float
         Normal and tangential stiffness (force/length). For a per-pair law, the smallest
-        type pair's (the overlap guard's F/k_n is then an upper bound of the overlap).
+        type pair's, for the record (the decks' overlap guard divides by each type's own k_n).
     xi_n, xi_t : float
         Normal and tangential damping rates (1/time), multiplied by m_eff in LAMMPS
         (single law; a per-pair law damps each pair for its ``e_n``).

@@ -42,12 +42,27 @@ CASES = {"heap": [{"mixture": "bi1-2", "feed_rate": q} for q in (0.033, 0.02, 0.
          "silo": [{"R": 3.0}]}
 
 
+def _laws(name: str) -> list[str]:
+    """The contact laws a scene's schema allows (``contact.model``)."""
+    import yaml
+
+    schema = yaml.safe_load((PROJECT_ROOT / "config" / "schema" / f"{name}.schema.yaml").read_text())
+    return list(schema["properties"]["contact"]["properties"]["model"]["enum"])
+
+
 def _cases():
+    """Every rung of every scene as its file has it, and the validation rung with every other law
+    the scene allows (a law no rung uses yet is still proven)."""
     out = []
     for name in registry.names():
         scene = load_scene(PROJECT_ROOT / "config" / "scenes" / f"{name}.yaml")
+        used = set()
         for rung in scene["rungs"]:
+            used.add(scene["rungs"][rung].get("contact_model") or scene["contact"]["model"])
             out.append(pytest.param(name, rung, id=f"{name}-{rung}"))
+        for law in _laws(name):
+            if law not in used:
+                out.append(pytest.param(name, f"validation+{law}", id=f"{name}-validation-{law}"))
     return out
 
 
@@ -56,6 +71,9 @@ class Setup:
 
     def __init__(self, name: str, rung: str):
         self.scene = load_scene(PROJECT_ROOT / "config" / "scenes" / f"{name}.yaml")
+        rung, _, law = rung.partition("+")  # "validation+<law>": the rung with another law
+        if law:
+            self.scene["rungs"][rung]["contact_model"] = law
         for case in CASES.get(name, [None]):
             try:
                 params, context = scene_parameters(self.scene, rung, case)

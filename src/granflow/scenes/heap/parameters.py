@@ -285,7 +285,7 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("d_min", round(d_min, 12), "smallest diameter, m"),
         Param("d_ref", d_ref, "reference diameter (largest species' mean): its pair has contact time t_c, m"),
         Param("k_n", round(model.k_n, 9), (f"normal stiffness: t_c = {rung['t_c']:g} s, e = {scene['contact']['e_n']} for the d_ref pair, N/m"
-                                           if not model.per_pair else "softest type pair's normal stiffness (the overlap guard's F/k_n), N/m")),
+                                           if not model.per_pair else "softest type pair's normal stiffness (record only: the overlap guard divides by each type's own kn_i_i), N/m")),
         Param("xi_n", round(model.xi_n, 9), "normal damping rate -2 ln(e)/t_c (force m_eff xi_n v_n), 1/s"),
         Param("xi_t", round(model.xi_t, 9), "tangential damping rate, 1/s"),
         Param("dt", round(dt, 12), f"time step = {dt / model.stiffest.t_c:.4g} t_c_min, s"),

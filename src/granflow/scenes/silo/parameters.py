@@ -290,7 +290,7 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("seed", int(case["seed"]), "random seed (re-insertion)"),
         Param("d_min", round(d_min, 12), "smallest diameter, m"),
         Param("k_n", round(model.k_n, 6), (f"normal stiffness: eq. 10 for two r_b spheres at Y = {rung['Y_factor'] * scene['contact']['youngs_modulus']:.4g} Pa, N/m"
-                                           if not model.per_pair else "softest type pair's normal stiffness (the overlap guard's F/k_n), N/m")),
+                                           if not model.per_pair else "softest type pair's normal stiffness (record only: the overlap guard divides by each type's own kn_i_i), N/m")),
         Param("xi_n", round(model.xi_n, 9), f"normal damping rate (x m_eff): e_n = {scene['contact']['e_n']} for the r_b pair, 1/s"),
         Param("xi_t", round(model.xi_t, 9), "tangential damping rate xi_t = 0.1 xi_n, 1/s"),
         Param("dt", round(dt, 13), f"time step = {rung['dt_fraction']:g} t_c_min, s"),

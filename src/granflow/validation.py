@@ -417,6 +417,12 @@ def write_readme(folder: Path) -> str:
             ov = f"{100 * ov:.2f} %" if isinstance(ov, (int, float)) else "–"
             text += (f"| {s['scene']} | {c['dir']} | {c['status']} | {c.get('particles') or '–'} | {ov} | "
                      f"{c['cpu_hours']:.2f} |\n")
+    changes = sorted((folder / "changes").glob("*.md"))
+    if changes:
+        text += ("\n## Changes: one-knob reruns against this record\n\n"
+                 "Written by `tools/compare_record.py` (the scene's own validation on the rerun cases, "
+                 "beside the same checks above); the record above is the last full `make validate`.\n\n")
+        text += "".join(p.read_text() for p in changes)
     text += "\n## What differs from the papers\n\n"
     for s in summaries:
         text += f"### {s['scene']} ({s.get('paper', '')})\n\n"

@@ -321,6 +321,24 @@ def profiles(cases: list[HeapCase]) -> dict[str, pd.DataFrame]:
 
 
 # --------------------------------------------------------------------------- set-up
+def law_difference(rec: dict, d_ref: float, knobs: dict, lightest: dict) -> str:
+    """The contact law against the paper's (every pair and wall contact t_c and e): each contact's e and t_c."""
+    es = [c["e_n"] for c in rec.get("contacts", []) if "e_n" in c] or [float("nan")]
+    law = rec.get("contact_law", {}).get("law", "hooke/history")
+    walls = "granular wall syntax" if "contact_law" in rec else "classic wall/gran hooke/history walls"
+    if law == "hooke/pair_time":
+        return (f"The paper's law per type pair (hooke/pair_time; {walls}): e = {min(es):.3g} for every contact; "
+                f"t_c from {lightest['t_c'] * 1e3:.3g} ms to {max(c['t_c'] for c in rec['contacts']) * 1e3:.3g} ms "
+                "inside the species' size spread (the paper: t_c for every contact).")
+    return (f"One normal stiffness for every pair and wall (LAMMPS gran/hooke/history; {walls}), set so that the "
+            f"reference pair (mean diameter {d_ref * 1e3:g} mm) has the paper's t_c = {knobs['t_c'] * 1e3:g} ms and "
+            f"e; lighter pairs collide faster (the lightest, {lightest['name']}: t_c = {lightest['t_c'] * 1e3:.3g} ms) "
+            f"and every contact has its own restitution: e from {min(es):.2f} to {max(es):.2f} over the listed "
+            f"pairs and walls. The paper gives every pair and wall t_c = {PAPER_T_C * 1e3:g} ms and e = 0.8 "
+            "(k_n ∝ m_eff): that law (hooke/pair_time) loses 1 mm particles through the walls at this feed (README, "
+            "Contact laws).")
+
+
 def differences(cases: list[HeapCase]) -> list[str]:
     """What differs from the paper's set-up, from the cases' records; one line per case for the overlap."""
     if not cases:
@@ -338,10 +356,7 @@ def differences(cases: list[HeapCase]) -> list[str]:
         f"feed zone {k['feed_width'] * 1e3:g} mm wide: what 2 cores afford; the flowing layer is about "
         f"{PAPER_W / k['W']:.1f}x shorter, so fewer streamwise bins lie away from the feed and the end wall "
         "(0.2 ≤ x/L ≤ 0.9)." + (f" {' and '.join(same)} as the paper's." if same else ""),
-        f"One normal stiffness for every pair (LAMMPS gran/hooke/history), set so that the reference pair (mean "
-        f"diameter {d_ref * 1e3:g} mm) has the paper's t_c = {k['t_c'] * 1e3:g} ms; lighter pairs collide faster "
-        f"(the lightest, {lightest['name']}: t_c = {lightest['t_c'] * 1e3:.3g} ms). The paper gives every pair "
-        f"t_c = {PAPER_T_C * 1e3:g} ms (k_n ∝ m_eff).",
+        law_difference(rec, d_ref, k, lightest),
         f"Time step dt = {k['dt_fraction']:g} × the shortest pair's t_c = t_c/{1 / k['dt_fraction']:.0f} = "
         f"{rec['dt']:.3g} s (the paper: t_c/100 = {PAPER_DT:g} s).",
         f"Averaging over {k['t_average']:g} s of steady filling (the paper: δt = {PAPER_T_AVERAGE:g} s).",

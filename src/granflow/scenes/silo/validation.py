@@ -296,6 +296,19 @@ def profiles(cases: list[SiloCase]) -> dict[str, pd.DataFrame]:
 
 
 # --------------------------------------------------------------------------- set-up
+def law_difference(rec: dict) -> str:
+    """The contact law against the paper's eq. 10 per pair: each contact's e_n."""
+    es = [c["e_n"] for c in rec.get("contacts", []) if "e_n" in c] or [float("nan")]
+    law = rec.get("contact_law", {}).get("law", "hooke/history")
+    walls = "granular wall syntax" if "contact_law" in rec else "classic wall/gran hooke/history walls"
+    if law == "hooke/pair_eq10":
+        return (f"The paper's law (hooke/pair_eq10; {walls}): eq. 10 per pair of the seven sizes, e_n = {min(es):.3g} "
+                "for every contact; a wall contact is R_eff = r_i, m_eff = m_i (not stated in the paper).")
+    return ("One normal stiffness for every pair (LAMMPS gran/hooke/history; " + walls + ": eq. 10 for two r_b "
+            f"spheres, k_n = {rec['k_n']:.4g} N/m); the paper evaluates eq. 10 for each pair's R_eff and m_eff. "
+            f"Every contact then has its own restitution: e_n from {min(es):.2f} to {max(es):.2f} (the paper: 0.88).")
+
+
 def differences(cases: list[SiloCase]) -> list[str]:
     """What differs from the paper's set-up, from the cases' records; one line per case for the overlap."""
     if not cases:
@@ -316,8 +329,7 @@ def differences(cases: list[SiloCase]) -> list[str]:
         f"shortest contact time t_c = {t_c:.3g} s (the paper's {PAPER_DT / PAPER_DT_FRACTION:.3g} s), so the run "
         "needs far fewer steps; stiffness scales as Y^(4/5) through eq. 10.",
         f"Time step dt = t_c/{1 / k['dt_fraction']:.0f} = {rec['dt']:.3g} s (the paper: t_c/50 = {PAPER_DT:.2g} s).",
-        "One normal stiffness for every pair (LAMMPS gran/hooke/history: eq. 10 for two r_b spheres, "
-        f"k_n = {rec['k_n']:.4g} N/m); the paper evaluates eq. 10 for each pair's R_eff and m_eff.",
+        law_difference(rec),
         f"Seven radii from {radii[0]:.4g} to {radii[-1]:g} r_b in equal steps of {np.diff(radii).mean():.4g} r_b, "
         "equal numbers; the paper's text gives r_s = r_b/2 + r_b/16 and a step of r_b/16, which would make 8 sizes.",
         "φ_bulk is measured in a slab at half the fill height, the paper's in a slab touching the top surface; the "

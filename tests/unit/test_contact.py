@@ -108,3 +108,78 @@ def test_size_ratio_three_renders(channel_scene, tmp_path):
     # the gas lattice cell holds the largest particle: no overlaps at insertion
     assert min(prm["a_x"], prm["a_y"], prm["a_z"]) >= 3.0
     assert prm["jiggle"] < 0.5 * (min(prm["a_x"], prm["a_y"], prm["a_z"]) - 3.0)
+
+
+# ---------------------------------------------------------------- the per-pair laws (issue 27)
+def _with_law(scene, rung, law):
+    import copy
+
+    s = copy.deepcopy(scene)
+    s["rungs"][rung]["contact_model"] = law
+    return s
+
+
+def test_pair_time_law_gives_every_pair_and_wall_the_papers_t_c_and_e(heap_scene):
+    """Fan et al. (2013): k_n = m_eff[(pi/t_c)^2 + (ln e/t_c)^2] per pair, so each type pair's
+    contact at its mean reduced mass lasts t_c exactly and every contact restitutes e."""
+    from granflow.scenes.heap.parameters import contact_model, species
+
+    scene = _with_law(heap_scene, "validation", "hooke/pair_time")
+    rung = scene["rungs"]["validation"]
+    model = contact_model(scene, rung, species(scene, "bi1-2"))
+    assert model.law == "hooke/pair_time" and model.pair_style == "granular"
+    assert {(p.i, p.j) for p in model.type_pairs} == {(1, 1), (1, 2), (2, 2), (1, None), (2, None)}
+    for p in model.type_pairs:
+        assert p.t_c == pytest.approx(rung["t_c"], rel=1e-12)
+        assert p.e_n == heap_scene["contact"]["e_n"]
+        assert p.k_t == pytest.approx(heap_scene["contact"]["kt_over_kn"] * p.k_n, rel=1e-12)
+    # k_n proportional to m_eff: a wall contact (m_eff = m) is twice as stiff as the same-type pair (m/2)
+    k = {(p.i, p.j): p.k_n for p in model.type_pairs}
+    assert k[(1, None)] == pytest.approx(2 * k[(1, 1)], rel=1e-12)
+    # within a species the size spread makes contacts shorter and longer than t_c: the extremes are listed
+    assert min(c.t_c for c in model.contacts) < rung["t_c"] < max(c.t_c for c in model.contacts)
+    assert {c.e_n for c in model.contacts} == {heap_scene["contact"]["e_n"]}
+
+
+def test_eq10_law_gives_each_pair_its_own_stiffness(silo_scene):
+    from granflow.scenes.silo.parameters import contact_model, hertz_stiffness, species
+
+    rung = silo_scene["rungs"]["validation"]
+    assert rung.get("contact_model") in (None, "hooke/pair_eq10")  # the paper's law at validation
+    model, eq10 = contact_model(silo_scene, rung)
+    sp = species(silo_scene)
+    c = silo_scene["contact"]
+    Y = rung["Y_factor"] * c["youngs_modulus"]
+    k = {(p.i, p.j): p.k_n for p in model.type_pairs}
+    for a in sp:
+        for b in sp[a["type"] - 1:]:
+            want = hertz_stiffness(Y, a["radius"], b["radius"], a["mass"], b["mass"], c["impact_velocity"])
+            assert k[(a["type"], b["type"])] == pytest.approx(want, rel=1e-12)
+        # the frozen rim ring acts on each size as the wall does
+        assert k[(a["type"], len(sp) + 1)] == k[(a["type"], None)]
+    # eq. 10 grows with R_eff and m_eff: the largest pair is the stiffest of the seven same-size pairs
+    same = [k[(t, t)] for t in range(1, len(sp) + 1)]
+    assert same == sorted(same)
+    assert {round(x.e_n, 12) for x in model.contacts} == {c["e_n"]}
+
+
+def test_single_law_is_the_default_below_validation(silo_scene):
+    from granflow.scenes.silo.parameters import contact_model
+
+    model, _ = contact_model(silo_scene, silo_scene["rungs"]["demo"])
+    assert model.law == "hooke/history" and model.type_pairs == [] and model.pair_style == "gran/hooke/history"
+    # one k_n: each pair's e differs (the mass-proportional dashpot), which the record lists
+    assert max(c.e_n for c in model.contacts) - min(c.e_n for c in model.contacts) > 0.05
+
+
+def test_unknown_law_is_refused_naming_key_and_choices(tmp_path, root):
+    import subprocess
+    import sys
+
+    text = (root / "config" / "scenes" / "heap.yaml").read_text().replace(
+        "  model: hooke/history ", "  model: hooke/mindlin ", 1)
+    (tmp_path / "heap.yaml").write_text(text)
+    out = subprocess.run([sys.executable, "-m", "granflow.cli", "check-config", str(tmp_path / "heap.yaml")],
+                         capture_output=True, text=True, cwd=root)
+    assert out.returncode == 2
+    assert "contact.model" in out.stderr and "hooke/pair_time" in out.stderr and "Traceback" not in out.stderr

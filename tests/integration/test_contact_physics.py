@@ -308,7 +308,8 @@ def test_wall_oblique_impacts(lmp, tmp_path, name, rung, style):
 
 @pytest.mark.parametrize("name,rung", _cases())
 def test_pair_collisions(lmp, tmp_path, name, rung):
-    """Every type pair head-on: the law's restitution, momentum conserved, no energy gained; and a
+    """Every type pair head-on: the law's restitution, momentum conserved, no energy gained; oblique
+    impacts of the smallest on the largest type: momentum conserved, no energy gained; and a
     sphere sliding on a frozen sphere 2e5 times larger (a flat particle) ends rolling at 5/7 v0."""
     s = Setup(name, rung)
     v0 = 0.5 if s.units == "si" else 1.0
@@ -322,12 +323,32 @@ def test_pair_collisions(lmp, tmp_path, name, rung):
             atoms.append({"type": i, "d": s.d[i - 1], "x": -half, "y": y, "z": 0.0, "vx": v0 / 2, "vy": 0.0, "vz": 0.0})
             atoms.append({"type": j, "d": s.d[j - 1], "x": half, "y": y, "z": 0.0, "vx": -v0 / 2, "vy": 0.0, "vz": 0.0})
             expect.append((i, j, *s.pair_restitution(i, j)))
+    n_head_on = len(expect)
+    oblique = []  # the smallest against the largest type, off-centre by b (r_i + r_j): glancing to half-on
+    for b in (0.3, 0.6, 0.9):
+        i, j = 1, s.ntypes
+        y = 3 * dmax * (len(expect) + len(oblique))
+        half = (s.d[i - 1] + s.d[j - 1]) / 2
+        dz = b * half
+        dx = math.sqrt(half**2 - dz**2) + gap
+        atoms.append({"type": i, "d": s.d[i - 1], "x": -dx / 2, "y": y, "z": 0.0, "vx": v0 / 2, "vy": 0.0, "vz": 0.0})
+        atoms.append({"type": j, "d": s.d[j - 1], "x": dx / 2, "y": y, "z": dz, "vx": -v0 / 2, "vy": 0.0, "vz": 0.0})
+        oblique.append(b)
     t_end = gap / v0 + 3 * max(e[3] for e in expect)
     steps = int(math.ceil(t_end / s.dt))
     frames = run_lammps(lmp, tmp_path, s, atoms, "fix             nve all nve/sphere\n",
-                        [-2 * dmax, 2 * dmax, -2 * dmax, 3 * dmax * len(expect) + dmax, -2 * dmax, 2 * dmax],
-                        steps, steps, "pairs")
+                        [-2 * dmax, 2 * dmax, -2 * dmax, 3 * dmax * (len(expect) + len(oblique)) + dmax, -2 * dmax,
+                         2 * dmax], steps, steps, "pairs")
     first, last = frames[0], frames[-1]
+    for k, b in enumerate(oblique, start=n_head_on):
+        a_, b_ = 2 * k, 2 * k + 1
+        p0 = first[a_, 2] * first[a_, 7:10] + first[b_, 2] * first[b_, 7:10]
+        p1 = last[a_, 2] * last[a_, 7:10] + last[b_, 2] * last[b_, 7:10]
+        np.testing.assert_allclose(p1, p0, atol=1e-9 * first[b_, 2] * v0)
+        ke0, ke1 = kinetic(first[[a_, b_]]).sum(), kinetic(last[[a_, b_]]).sum()
+        # an oblique contact spins both spheres; translation + rotation never gains (round-off only)
+        assert ke1 <= ke0 * (1 + 1e-9), f"oblique pair at b = {b}: KE {ke1 / ke0:.6f} of the incoming"
+        assert np.abs(last[[a_, b_], 10:13]).max() > 0, f"oblique pair at b = {b} did not touch"
     for k, (i, j, e, t_c) in enumerate(expect):
         a, b = 2 * k, 2 * k + 1
         p0 = first[a, 2] * first[a, 7:10] + first[b, 2] * first[b, 7:10]

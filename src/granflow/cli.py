@@ -142,7 +142,8 @@ def cmd_render(args) -> int:
     stages = ",".join([s for s in STAGES if s in written] + sorted(written - set(STAGES)))
     what = registry.get(scene["scene"]).describe(record)
     print(f"wrote {args.out}/{{{stages}}}.lmp and params.json: {scene['scene']}, rung {args.rung}, "
-          f"{what}, dt = {record['dt']:.4g} ({record['dt'] / prm['t_c_min']:.3g} t_c_min)")
+          f"{what}, dt = {record['dt']:.4g} ({record['dt'] / prm['t_c_min']:.3g} t_c_min), "
+          f"contact law {record['contact_law']['law']}")
     return 0
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shlex
 import sys
 from pathlib import Path
 
@@ -51,12 +52,39 @@ def compare(scene: str, scene_dir: Path, cases: list[str], record: Path) -> tupl
     return rows, old_cases, new_cases
 
 
-def markdown(title: str, command: str, rows: list[dict], old_cases: dict, new_cases: dict) -> str:
+def case_scalars(record: Path, scene_dir: Path, cases: list[str]) -> list[tuple[str, str, float, float]]:
+    """(case, name, before, after) for every number of a case's row in the record's ``profiles/sweep.csv``
+    (the per-case scalars a sweep fit rests on) that the rerun's ``analysis/scalars.json`` also has."""
+    import pandas as pd
+
+    sweep = record.parent / "profiles" / "sweep.csv"
+    if not sweep.exists():
+        return []
+    old = pd.read_csv(sweep).set_index("case")
+    out = []
+    for c in cases:
+        path = scene_dir / c / "analysis" / "scalars.json"
+        if c not in old.index or not path.exists():
+            continue
+        new = json.loads(path.read_text())
+        for name, value in old.loc[c].items():
+            if isinstance(new.get(name), (int, float)) and isinstance(value, (int, float)) and not isinstance(value, bool):
+                out.append((c, name, float(value), float(new[name])))
+    return out
+
+
+def markdown(title: str, command: str, rows: list[dict], old_cases: dict, new_cases: dict,
+             scalars: list | None = None) -> str:
     text = f"### {title}\n\n`{command}`\n\n| quantity | case | paper | before | after | verdict after |\n|---|---|---|---|---|---|\n"
     for r in rows:
         oe = r["old_error"] if isinstance(r["old_error"], float) else float("nan")
         text += (f"| {r['quantity']} | {r['case']} | {r['paper']} | {_fmt(r['old'], oe)} {r['unit']} | "
                  f"{_fmt(r['new'], r['new_error'])} {r['unit']} | {r['new_verdict']} |\n")
+    if scalars:
+        text += "\n| case | per-case number (profiles/sweep.csv) | before | after | after / before |\n|---|---|---|---|---|\n"
+        for c, name, b, a in scalars:
+            ratio = a / b if b else float("nan")
+            text += f"| {c} | {name} | {_fmt(b)} | {_fmt(a)} | {_fmt(ratio)} |\n"
     text += "\n| case | before: status, particles, CPU-h, commit | after: status, particles, CPU-h, commit |\n|---|---|---|\n"
     for c, n in new_cases.items():
         o = old_cases.get(c, {})
@@ -77,8 +105,8 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     record = a.record or ROOT / "validation" / a.scene / "summary.json"
     rows, old_cases, new_cases = compare(a.scene, a.scene_dir, a.cases, record)
-    command = "python tools/compare_record.py " + " ".join(sys.argv[1:] if argv is None else argv)
-    text = markdown(a.title, command, rows, old_cases, new_cases)
+    command = "python tools/compare_record.py " + shlex.join(sys.argv[1:] if argv is None else argv)
+    text = markdown(a.title, command, rows, old_cases, new_cases, case_scalars(record, a.scene_dir, a.cases))
     print(text)
     if a.out:
         a.out.parent.mkdir(parents=True, exist_ok=True)

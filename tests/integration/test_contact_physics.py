@@ -215,6 +215,9 @@ def kinetic(frame: np.ndarray) -> np.ndarray:
     return 0.5 * m * (v**2).sum(1) + 0.5 * 0.4 * m * r**2 * (w**2).sum(1)
 
 
+#: every (scene, rung[+law]) case, built once for the three tests below
+CASES_BY_RUNG = _cases()
+
 WALLS = {  # the two wall styles the decks use, both the plane z = 0 below the spheres
     "plane": ("wall/gran", "zplane 0.0 NULL", ""),
     "region": ("wall/gran/region", "region floor", "region floor plane 0.0 0.0 0.0 0.0 0.0 1.0 side in units box\n"),
@@ -222,7 +225,7 @@ WALLS = {  # the two wall styles the decks use, both the plane z = 0 below the s
 
 
 @pytest.mark.parametrize("style", sorted(WALLS))
-@pytest.mark.parametrize("name,rung", _cases())
+@pytest.mark.parametrize("name,rung", CASES_BY_RUNG)
 def test_wall_sliding_sphere_ends_rolling(lmp, tmp_path, name, rung, style):
     """Chung & Ooi test 8 style: sliding -> rolling at 5/7 v0, omega r = v, kinetic energy never rises."""
     s = Setup(name, rung)
@@ -260,7 +263,7 @@ def test_wall_sliding_sphere_ends_rolling(lmp, tmp_path, name, rung, style):
 
 
 @pytest.mark.parametrize("style", sorted(WALLS))
-@pytest.mark.parametrize("name,rung", _cases())
+@pytest.mark.parametrize("name,rung", CASES_BY_RUNG)
 def test_wall_oblique_impacts(lmp, tmp_path, name, rung, style):
     """Impacts at 0-75 degrees: no energy gained, Coulomb bound on the tangential impulse, promised restitution."""
     s = Setup(name, rung)
@@ -306,7 +309,7 @@ def test_wall_oblique_impacts(lmp, tmp_path, name, rung, style):
             f"type {t} at {a} deg: e = {e_meas:.4f}, law gives {e:.4f} (dt = {s.dt / t_c:.3g} t_c)"
 
 
-@pytest.mark.parametrize("name,rung", _cases())
+@pytest.mark.parametrize("name,rung", CASES_BY_RUNG)
 def test_pair_collisions(lmp, tmp_path, name, rung):
     """Every type pair head-on: the law's restitution, momentum conserved, no energy gained; oblique
     impacts of the smallest on the largest type: momentum conserved, no energy gained; and a

@@ -9,8 +9,12 @@ provenance of the cases (git commit, LAMMPS version, CPU-hours), picks the key l
 writes ``validation/<scene>/`` and the one table of ``validation/README.md``.
 
 Verdicts are computed, never typed in: a check is ``within error`` when the paper's value or
-range lies within ``k`` combined standard errors of ours (``k`` = :data:`SIGMAS`), otherwise
-it ``differs`` by the relative amount to the nearest paper value, in units of the error.
+range lies within ``k`` combined errors of ours (``k`` = :data:`SIGMAS`), otherwise it
+``differs`` by the relative amount to the nearest paper value, in units of the error. The
+combined error adds in quadrature the statistical error, the systematic error of the
+measurement (:func:`systematic`: the largest shift of the headline over the measurement
+choices it depends on, each recomputed from the same dumps) and the paper's own error; a
+difference no larger than the systematic error alone is reported as such.
 """
 from __future__ import annotations
 
@@ -47,7 +51,7 @@ class Check:
     ours : float
         Our value.
     error : float
-        One standard error of ours (NaN when the quantity has none).
+        One standard error of ours (NaN when the quantity has none): the statistical error.
     case : str
         Case directory it was measured on, or ``sweep`` for a fit over the cases.
     paper_range : tuple of float or None
@@ -58,6 +62,11 @@ class Check:
     unit : str
     note : str
         What the comparison means, or what we think causes a difference.
+    syst : float
+        Systematic error of ours: the largest shift of the value over the measurement choices
+        in ``variants`` (NaN when none was computed; :func:`systematic`).
+    variants : str
+        Each measurement choice and the value it gives, e.g. ``slab ±0.25 r_b: 0.52; ...``.
     """
 
     quantity: str
@@ -70,23 +79,43 @@ class Check:
     paper_error: float = 0.0
     unit: str = ""
     note: str = ""
+    syst: float = float("nan")
+    variants: str = ""
     verdict: str = field(default="", init=False)
     difference: float = field(default=float("nan"), init=False)
 
     def __post_init__(self):
         self.ours = float(self.ours)
         self.error = float(self.error)
-        self.verdict, self.difference = verdict(self.ours, self.error, self.paper_range, self.paper_error)
+        self.syst = float(self.syst)
+        self.verdict, self.difference = verdict(self.ours, self.error, self.paper_range, self.paper_error,
+                                                self.syst)
 
 
-def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0) -> tuple[str, float]:
+def systematic(central: float, variants: dict[str, float]) -> tuple[float, str]:
+    """``(systematic error, text)`` of a value measured one way, from the same value measured others.
+
+    The systematic error is the largest shift ``|variant - central|`` over the finite variants
+    (NaN when there is none); the text lists every variant with its value, e.g.
+    ``slab ±0.25 r_b: 0.52; slab ±1 r_b: 0.55``.
+    """
+    shifts = [abs(float(v) - float(central)) for v in variants.values()
+              if math.isfinite(float(v)) and math.isfinite(float(central))]
+    text = "; ".join(f"{name}: {float(v):.4g}" for name, v in variants.items())
+    return (max(shifts) if shifts else float("nan")), text
+
+
+def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0,
+            syst: float = float("nan")) -> tuple[str, float]:
     """``(words, relative difference)`` of ours against the paper's range.
 
     The difference is measured to the nearest end of the range (0 inside it); the
-    combined error is ``sqrt(error^2 + paper_error^2)``. ``within error`` when the
-    difference is within :data:`SIGMAS` combined errors; ``differs by X % (Y sigma)`` otherwise;
-    ``no statistical error`` when ours has none and lies outside the range. Against a paper
-    value of 0 the difference is absolute. ``not measured`` when ours is NaN.
+    combined error is ``sqrt(error^2 + syst^2 + paper_error^2)``. ``within the systematic
+    error`` when the difference is no larger than ``syst`` alone (the measurement choices
+    explain it); ``within error`` when it is within :data:`SIGMAS` combined errors;
+    ``differs by X % (Y sigma)`` otherwise; ``no statistical error`` when ours has none and
+    lies outside the range. Against a paper value of 0 the difference is absolute.
+    ``not measured`` when ours is NaN.
     """
     if not math.isfinite(ours):
         return "not measured", float("nan")
@@ -96,14 +125,18 @@ def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0) ->
     nearest = min(max(ours, lo), hi)
     diff = ours - nearest
     rel = diff / abs(nearest) if nearest else diff
-    sig = math.hypot(error if math.isfinite(error) else 0.0, paper_error)
+    stat = error if math.isfinite(error) else 0.0
+    sys_ = syst if math.isfinite(syst) else 0.0
+    sig = math.sqrt(stat ** 2 + sys_ ** 2 + paper_error ** 2)
     if diff == 0.0:
         return "within the paper's range" if hi > lo else "equal", 0.0
+    if sys_ > 0 and abs(diff) <= sys_:
+        return f"within the systematic error (the difference {abs(diff):.3g} ≤ syst {sys_:.3g})", rel
     if sig > 0 and abs(diff) <= SIGMAS * sig:
         return f"within error ({abs(diff) / sig:.1f} σ)", rel
     words = f"differs by {100 * rel:+.1f} %" if nearest else f"differs by {diff:+.3g} (the paper's value is 0)"
     if sig > 0:
-        words += f" ({abs(diff) / sig:.0f} σ)"
+        words += f" ({abs(diff) / sig:.0f} σ{' with stat and syst' if sys_ > 0 else ''})"
     elif not math.isfinite(error):
         words += " (no statistical error)"
     return words, rel
@@ -246,25 +279,31 @@ def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs
     return summary
 
 
-def _fmt(x: float, err: float = float("nan")) -> str:
+def _fmt(x: float, err: float = float("nan"), syst: float | None = None) -> str:
+    """``x ± stat`` or ``x ± stat ± syst`` with the digits of the smaller finite error."""
     if x is None or not math.isfinite(x):
         return "–"
-    if err is not None and math.isfinite(err) and err > 0:
-        digits = max(0, 1 - int(math.floor(math.log10(err))))
-        return f"{x:.{digits}f} ± {err:.{digits}f}"
-    return f"{x:.4g}"
+    errs = [e for e in (err, syst) if e is not None and math.isfinite(e) and e > 0]
+    if not errs:
+        return f"{x:.4g}"
+    digits = max(0, 1 - int(math.floor(math.log10(min(errs)))))
+    text = f"{x:.{digits}f}"
+    text += f" ± {err:.{digits}f}" if err is not None and math.isfinite(err) and err > 0 else " ± –"
+    if syst is not None and math.isfinite(syst):
+        text += f" ± {syst:.{digits}f}"
+    return text
 
 
 def readme_table(summaries: list[dict]) -> str:
     """The one table of ``validation/README.md`` from the scenes' summaries."""
-    rows = ["| scene | quantity | paper (source) | ours ± error | case | rung, size | CPU-h | verdict |",
+    rows = ["| scene | quantity | paper (source) | ours ± stat (± syst) | case | rung, size | CPU-h | verdict |",
             "|---|---|---|---|---|---|---|---|"]
     for s in summaries:
         size = ", ".join(sorted({f"{c['particles']:,} particles" for c in s["cases"] if c.get("particles")}))
         for c in s["checks"]:
             unit = f" {c['unit']}" if c.get("unit") else ""
             rows.append(f"| {s['scene']} | {c['quantity']} | {c['paper']}{unit} ({c['source']}) | "
-                        f"{_fmt(c['ours'], c['error'])}{unit} | {c['case']} | {s['rung']}, {size} | "
+                        f"{_fmt(c['ours'], c['error'], c.get('syst'))}{unit} | {c['case']} | {s['rung']}, {size} | "
                         f"{s['cpu_hours']:.2f} | {c['verdict']} |")
     return "\n".join(rows) + "\n"
 
@@ -377,8 +416,14 @@ restart, so it can be split over sittings) and rewrites this folder. Do not edit
   g (integrated autocorrelation time, `emcee.autocorr.integrated_time`) and
   se = sd·sqrt(g/n) (`postproc.autocorr`); the block error stays in `summary.json` as a
   cross-check. Fit parameters carry the fit's standard errors.
-- **verdict**: *within error* when the paper's value (or the nearest end of its range) lies
-  within {sigmas:g} combined standard errors of ours; otherwise *differs by* the relative amount and
+- **± syst** (where shown): the systematic error of the measurement, the largest shift of the
+  number over the measurement choices it depends on (kernel width, slab, fit form, fit range,
+  …), each recomputed from the same dumps; `<scene>/checks.csv` lists every variant
+  (`variants`). A number without it has not had its measurement choices varied yet.
+- **verdict**: *within the systematic error* when the difference from the paper is no larger
+  than the systematic error alone; *within error* when the paper's value (or the nearest end
+  of its range) lies within {sigmas:g} combined errors (stat, syst and the paper's, in
+  quadrature); otherwise *differs by* the relative amount and
   the number of standard errors. A quantity the paper gives only as a shape is compared in
   words (see the note in `<scene>/checks.csv`). Nothing was tuned to match a paper.
 - Each `<scene>/summary.json` carries the granflow commit and the LAMMPS version of its runs,
@@ -395,7 +440,7 @@ def write_readme(folder: Path) -> str:
     summaries = [json.loads(p.read_text()) for p in sorted(folder.glob("*/summary.json"))]
     for s in summaries:
         for c in s["checks"]:
-            for key in ("ours", "error", "difference"):
+            for key in ("ours", "error", "difference", "syst"):
                 c[key] = float("nan") if c.get(key) is None else c[key]
         for c in s["cases"]:
             c["cpu_hours"] = float("nan") if c.get("cpu_hours") is None else c["cpu_hours"]

@@ -38,6 +38,34 @@ def test_no_error_and_outside_says_so_and_shapes_are_words():
     assert verdict(1.5, 0.2, (1.0, float("inf")))[0] == "within the paper's range"
 
 
+def test_systematic_error_is_the_largest_shift_over_the_measurement_choices():
+    syst, text = validation.systematic(0.50, {"slab 0.25": 0.52, "slab 1": 0.45, "fit form": float("nan")})
+    assert syst == pytest.approx(0.05)
+    assert text == "slab 0.25: 0.52; slab 1: 0.45; fit form: nan"
+    assert math.isnan(validation.systematic(0.5, {})[0])
+    assert math.isnan(validation.systematic(float("nan"), {"a": 1.0})[0])
+
+
+def test_a_difference_the_measurement_choices_explain_is_not_called_n_sigma():
+    # 1.30 against 0.5 with stat 0.1: 8 sigma; with a syst of 0.9 the choices alone cover it
+    assert verdict(1.30, 0.10, (0.5, 0.5))[0].startswith("differs by +160.0 % (8 σ)")
+    words, rel = verdict(1.30, 0.10, (0.5, 0.5), syst=0.9)
+    assert words.startswith("within the systematic error") and rel == pytest.approx(1.6)
+    # stat and syst in quadrature: 0.3 off, stat 0.1, syst 0.12 -> combined 0.156: 1.9 sigma
+    assert verdict(0.80, 0.10, (0.5, 0.5), syst=0.12)[0] == "within error (1.9 σ)"
+    # and when even both do not reach: the sigma says it counted both
+    assert verdict(1.30, 0.10, (0.5, 0.5), syst=0.2)[0] == "differs by +160.0 % (4 σ with stat and syst)"
+    check = Check("a", "1/2", "Fig. 5", 1.30, 0.10, paper_range=(0.5, 0.5), syst=0.9, variants="x: 1")
+    assert check.verdict.startswith("within the systematic error") and check.syst == 0.9
+
+
+def test_the_table_shows_stat_and_syst_and_old_records_without_syst():
+    assert validation._fmt(1.2964, 0.1031, 0.2412) == "1.30 ± 0.10 ± 0.24"
+    assert validation._fmt(1.2964, 0.1031, float("nan")) == "1.30 ± 0.10"
+    assert validation._fmt(1.2964, 0.1031) == "1.30 ± 0.10"
+    assert validation._fmt(1.2964, float("nan"), 0.02) == "1.296 ± – ± 0.020"
+
+
 def _case(tmp_path, rel, cpu_s, overlap):
     case = tmp_path / "results" / rel
     (case / "run" / "logs").mkdir(parents=True)

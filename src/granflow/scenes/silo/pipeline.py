@@ -58,7 +58,8 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
     Returns
     -------
     tables : dict of DataFrame
-        ``flow`` (windowed W_f, W_r), ``fields``, ``contact``, ``kinetic_w<w>``.
+        ``flow`` (windowed W_f, W_r), ``fields``, ``contact``, ``kinetic_w<w>``, ``orifice_plane``
+        (:class:`~granflow.scenes.silo.analysis.orifice.PlaneCrossing`: the orifice without a kernel).
     scalars : dict
     """
     import granflow.scenes.silo.analysis as sl
@@ -66,6 +67,8 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
     from postproc.coordinates import RZCoordinates
     from postproc.fields import FieldAccumulator
     from postproc.kernels import Gaussian
+
+    from .analysis.orifice import PlaneCrossing
 
     case_dir, record, status = case_inputs(case_dir, record)
     th = silo_discharge_thermo(pd.read_csv(case_dir / "run" / "thermo.csv"))
@@ -108,6 +111,8 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
                                 species=species_ids, n_blocks=cg["n_blocks"]) for w in w_scan}
     contact = FieldAccumulator(Gaussian.paper(cg["w_contact"] * r_b, silo_grid(record, cg["contact_node_spacing"])),
                                coords, fields=("sigmac", "pc"), n_blocks=cg["n_blocks"])
+    # the orifice without a kernel: particles within a thin slab about the orifice plane
+    plane = None if headline_only else PlaneCrossing(R, r_b, n_blocks=cg["n_blocks"])
     accumulators = [main, *scan.values(), contact]
     for acc in accumulators:
         acc.prepare()
@@ -125,6 +130,8 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
             main.accumulate(frame)
             for acc in scan.values():
                 acc.accumulate(frame)
+            if plane is not None:
+                plane.accumulate(frame)
             if frame.timestep in contact_frames:
                 contact.accumulate(frame, contacts=contact_frames[frame.timestep])
     if not n_frames:
@@ -136,6 +143,9 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
         tables[f"kinetic_w{w:g}"] = acc.conclude()
     prof = sl.orifice_profiles(tables["fields"], R)
     scalars.update({k: v for k, v in prof.items() if np.isscalar(v)})
+    if plane is not None:
+        tables["orifice_plane"], plane_scalars = plane.conclude()
+        scalars.update(plane_scalars)
     axis = sl.axis_profile(tables["fields"], "pk")
     h_c, h_c_se = sl.transition_height(axis["z"], axis["value"], axis["value_se"])
     scalars.update({"h_c": h_c, "h_c_se": h_c_se, "h_c_over_R": h_c / R, "h_c_over_R_se": h_c_se / R})

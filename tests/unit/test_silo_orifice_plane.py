@@ -90,3 +90,20 @@ def test_the_shape_fit_is_exact_on_exact_data_and_weights_by_the_errors():
     se[0] = 100.0
     assert shape_fit(lo, hi, v_bad, se, R)[0] == pytest.approx(-2.0, abs=1e-4)
     assert np.isnan(shape_fit(lo, hi, v, se, R, fit_range=0.0)[0])
+
+
+def test_the_offset_power_fit_recovers_a_beverloo_like_law_and_needs_four_points():
+    from granflow.scenes.silo.analysis import scaling_exponent, shifted_power_fit
+
+    R = np.array([6.0, 7.5, 9.0, 10.5, 12.0])
+    v = 2.0 * (R - 4.5) ** 0.5
+    fit = shifted_power_fit(R, v, 0.01 * v)
+    assert [fit["prefactor"], fit["x0"], fit["exponent"]] == pytest.approx([2.0, 4.5, 0.5], rel=1e-6)
+    # the pure power law over the same points reads the curvature as a larger exponent, and fits badly
+    pure = scaling_exponent(R, v, 0.01 * v)
+    assert pure["exponent"] > 1.0 and pure["chi2_dof"] > 10
+    # seeded noise at 1 %: b within three of its errors
+    rng = np.random.default_rng(7)
+    noisy = shifted_power_fit(R, v * (1 + 0.01 * rng.standard_normal(5)), 0.01 * v)
+    assert abs(noisy["exponent"] - 0.5) < 3 * noisy["exponent_se"]
+    assert np.isnan(shifted_power_fit(R[:3], v[:3], 0.01 * v[:3])["exponent"])

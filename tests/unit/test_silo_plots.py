@@ -24,6 +24,7 @@ R_C = 24 * R_B
 C_BEV, K_BEV = 0.58, 1.5
 A_VC = 2.0                                        # v_c = A_VC sqrt(R), m^1/2/s
 EXPECTED_AXES = {"fig02_flow_rate": 2, "fig03_fields": 2, "fig04_phi_orifice": 2, "fig05_vz_orifice": 3,
+                 "fig05d_orifice_plane": 3,
                  "fig06_contact_pressure": 2, "fig07_kinetic_pressure_maps": None, "fig08_kinetic_axis": 2,
                  "fig09_kinetic_w": 2, "fig10_cumulative": 2, "fig11_partial": 2, "fig12_partial_over_phi": 1,
                  "fig13_beverloo": 2}
@@ -67,6 +68,25 @@ def thermo_series(R: float, rng) -> pd.DataFrame:
                              v_mdel=m_del, v_mins=0.0, v_zs=z_s, c_ke=1.0, v_overlap=1e-3))
 
 
+def plane_reading(R: float, rng, n_frames: int = 8, n: int = 3000):
+    """The kernel-free orifice reading of particles falling at A_VC sqrt(R) sqrt(1 - (r/R)^2)."""
+    from types import SimpleNamespace
+
+    from granflow.scenes.silo.analysis.orifice import PlaneCrossing
+
+    plane = PlaneCrossing(R, R_B, n_blocks=4)
+    radius = 0.8 * R_B
+    for step in range(n_frames):
+        r = 1.5 * R * np.sqrt(rng.random(n))
+        th = 2 * np.pi * rng.random(n)
+        pos = np.column_stack([r * np.cos(th), r * np.sin(th), rng.uniform(-R_B, R_B, n)])
+        vel = np.zeros((n, 3))
+        vel[:, 2] = -A_VC * np.sqrt(R) * np.sqrt(np.clip(1 - (r / R) ** 2, 0, None)) * (1 + 0.02 * rng.standard_normal(n))
+        plane.accumulate(SimpleNamespace(position=pos, velocity=vel, mass=np.full(n, RHO_P * 4 / 3 * np.pi * radius**3),
+                                         volume=np.full(n, 4 / 3 * np.pi * radius**3)))
+    return plane.conclude()
+
+
 def make_case(n_R: int, rng, rung: str = "demo") -> dict:
     R = n_R * R_B
     thermo = thermo_series(R, rng)
@@ -84,8 +104,10 @@ def make_case(n_R: int, rng, rung: str = "demo") -> dict:
                    provenance=provenance, label=f"R = {n_R} r_b", phi_b=PHI_B, W_f=W, W_se=W_se, t_start=t0,
                    t_end=t1, phi_c=o["phi_c"], phi_c_se=o["phi_c_se"], v_c=o["v_c"], v_c_se=o["v_c_se"],
                    h_c=h_c, h_c_se=h_c_se, sqrt_profile_deviation=o["sqrt_profile_deviation"])
+    plane, plane_scalars = plane_reading(R, rng)
+    scalars.update(plane_scalars)
     return dict(label=f"R = {n_R} r_b", provenance=provenance, scalars=scalars, flow=flow, fields=fields,
-                contact=contact, kinetic_scan=scan)
+                contact=contact, kinetic_scan=scan, orifice_plane=plane)
 
 
 @pytest.fixture(scope="module")
@@ -169,6 +191,21 @@ def test_beverloo_legend_and_refusal(cases, rendered, tmp_path):
     assert "Beverloo fit: C = " in labels and "k = " in labels
     fig = sp.fig13_beverloo(cases[:2], tmp_path / "b2.png")
     assert "at least 3 orifice sizes" in all_texts(fig)
+
+
+def test_the_plane_figure_plots_the_plane_profile_and_fits_the_square_root(cases, rendered, assert_plotted):
+    fig = rendered["fig05d_orifice_plane"][0]
+    for case in cases:
+        p = case["orifice_plane"]
+        p = p[(p["slab_half"] == 0.5) & (p["r_over_R"] <= 1.3)]
+        v_c = abs(case["scalars"]["v_c_plane"])
+        assert v_c == pytest.approx(A_VC * np.sqrt(case["scalars"]["R"]), rel=0.02)
+        assert_plotted(fig.axes[0], p["r_over_R"], -p["vz"] / v_c)
+        assert_plotted(fig.axes[1], p["r_over_R"], p["phi"])
+    labels = " ".join(fig.axes[2].get_legend_handles_labels()[1])
+    exponent = float(labels.split("a = ")[1].split(" ")[0])
+    assert exponent == pytest.approx(0.5, abs=0.03)     # v_c = A_VC sqrt(R) built in
+    assert "kernel node" in labels and "sqrt{2gR}" in labels
 
 
 def test_sqrt_reference_is_labelled(rendered):

@@ -159,7 +159,8 @@ class SiloScene(Scene):
             scan = {float(name.split("_w", 1)[1]) * s["r_b"]: t for name, t in tables.items()
                     if name.startswith("kinetic_w")}
             out.append({"label": s["label"], "provenance": s["provenance"], "scalars": s, "flow": tables["flow"],
-                        "fields": tables["fields"], "contact": tables["contact"], "kinetic_scan": scan})
+                        "fields": tables["fields"], "contact": tables["contact"], "kinetic_scan": scan,
+                        "orifice_plane": tables.get("orifice_plane")})
         return out
 
     # -- the validation record -------------------------------------------------------------

@@ -397,6 +397,55 @@ def scaling_exponent(x, y, y_se=None) -> dict:
                 chi2_dof=fit["chi2_dof"], n=fit["n"])
 
 
+def shifted_power_fit(x, y, y_se=None) -> dict:
+    """Fit :math:`y = A (x - x_0)^b` (a power law with an offset, Beverloo's "empty annulus").
+
+    Weighted least squares (``scipy.optimize.curve_fit`` with ``sigma = y_se``, errors scaled by
+    :math:`\\chi^2/\\nu` when it exceeds 1, as :func:`weighted_line_fit`), started from the pure
+    power law (:func:`scaling_exponent`, :math:`x_0 = 0`). Needs four points (three parameters
+    and one degree of freedom); fewer give NaN. ``x_0`` is kept below the smallest x.
+
+    Returns
+    -------
+    dict
+        ``exponent, exponent_se, x0, x0_se, prefactor, chi2_dof, n``.
+    """
+    from scipy.optimize import curve_fit
+
+    x = np.asarray(x, dtype=float).ravel()
+    y = np.asarray(y, dtype=float).ravel()
+    se = None if y_se is None else np.asarray(y_se, dtype=float).ravel()
+    ok = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
+    if se is not None:
+        ok &= np.isfinite(se) & (se > 0)
+    x, y = x[ok], y[ok]
+    se = se[ok] if se is not None else None
+    n = len(x)
+    out = dict(exponent=np.nan, exponent_se=np.nan, x0=np.nan, x0_se=np.nan, prefactor=np.nan,
+               chi2_dof=np.nan, n=n)
+    if n < 4:
+        return out
+    start = scaling_exponent(x, y, se)
+
+    def model(xx, A, x0, b):
+        return A * np.clip(xx - x0, 1e-12, None) ** b
+
+    try:
+        p, cov = curve_fit(model, x, y, p0=(start["prefactor"], 0.0, start["exponent"]), sigma=se,
+                           absolute_sigma=se is not None, bounds=([0, -10 * x.max(), 0.0], [np.inf, 0.999 * x.min(), 10.0]),
+                           maxfev=20000)
+    except (RuntimeError, ValueError):
+        return out
+    resid = (y - model(x, *p)) / (se if se is not None else 1.0)
+    chi2_dof = float(np.sum(resid**2) / (n - 3))
+    if se is not None and chi2_dof > 1:
+        cov = cov * chi2_dof
+    err = np.sqrt(np.diag(cov))
+    out.update(exponent=float(p[2]), exponent_se=float(err[2]), x0=float(p[1]), x0_se=float(err[1]),
+               prefactor=float(p[0]), chi2_dof=chi2_dof if se is not None else np.nan)
+    return out
+
+
 def bulk_volume_fraction(fields: pd.DataFrame, fill_height: float, R_c: float, r_b: float) -> tuple[float, float]:
     """Bulk volume fraction of the silo: the mean of :math:`\\phi` over a slab at half the fill height.
 

@@ -203,6 +203,70 @@ def fig05_vz_orifice(cases: list[dict], path) -> Figure:
     return _finish(fig, cases, path)
 
 
+def fig05d_orifice_plane(cases: list[dict], path) -> Figure:
+    """The orifice read without a kernel, beside the kernel reading (paper figure 5's quantities).
+
+    (a) :math:`v_z(r)/v_c` against :math:`r/R` from the particles within ±0.5 r_b of the orifice
+    plane (:class:`~granflow.scenes.silo.analysis.orifice.PlaneCrossing`) with
+    :math:`\\sqrt{1-(r/R)^2}`; (b) :math:`\\phi(r)` from the same slab; (c) :math:`v_c` against
+    :math:`R/r_b` on log axes: the plane reading (filled), the kernel node w = 2 r_b (open),
+    :math:`\\sqrt{2gR}` (free fall from R above the orifice), the power-law fit and the fit
+    :math:`A(R-R_0)^b` of the plane reading.
+    """
+    fig, axes = _new_figure(1, 3, (15, 4.6))
+    ax_a, ax_b, ax_c = axes[0]
+    ax_a.set(xlabel=r"$r/R$", ylabel=r"$v_z(r)/v_c$", title="(a) velocity in the orifice plane (no kernel)")
+    ax_b.set(xlabel=r"$r/R$", ylabel=r"$\phi(r)$", title=r"(b) $\phi$ in the orifice plane (no kernel)")
+    ax_c.set(xlabel=r"$R/r_b$", ylabel=r"$v_c$ [m/s]", title=r"(c) $v_c$: plane and kernel", xscale="log", yscale="log")
+    if not cases:
+        _no_case(axes)
+        return _finish(fig, cases, path)
+    Rs, vp, vp_se, vk, r_b, g = [], [], [], [], np.nan, np.nan
+    for i, case in enumerate(cases):
+        pl = case.get("orifice_plane")
+        style = dict(color=_colour(i), marker=MARKERS[i % len(MARKERS)], ms=3.5)
+        v_c = abs(_scalar(case, "v_c_plane"))
+        if pl is not None and _has(pl, "vz") and np.isfinite(v_c):
+            p = pl[(pl["slab_half"] == _scalar(case, "plane_slab_half")) & (pl["r_over_R"] <= 1.3)]
+            _errorbar(ax_a, p["r_over_R"], -p["vz"] / v_c, p["vz_se"] / v_c, label=_case_name(case), lw=0.8,
+                      capsize=1.5, **style)
+            _errorbar(ax_b, p["r_over_R"], p["phi"], p["phi_se"], label=_case_name(case), lw=0.8, capsize=1.5, **style)
+        R_rb = _scalar(case, "R") / _scalar(case, "r_b")
+        r_b, g = _scalar(case, "r_b"), _scalar(case, "gravity")
+        if np.isfinite(v_c) and np.isfinite(R_rb):
+            ax_c.errorbar([R_rb], [v_c], yerr=[np.nan_to_num(_scalar(case, "v_c_plane_se"))], ls="none", capsize=2,
+                          label=_case_name(case), **style)
+            Rs.append(R_rb), vp.append(v_c), vp_se.append(_scalar(case, "v_c_plane_se"))
+            vk.append(_scalar(case, "v_c"))
+            ax_c.plot([R_rb], [_scalar(case, "v_c")], ls="none", marker=style["marker"], mfc="none",
+                      color=style["color"], ms=5)
+    x = np.linspace(0, 1, 200)
+    ax_a.plot(x, np.sqrt(1 - x ** 2), "k-", lw=1.5, label=r"$\sqrt{1-(r/R)^2}$")
+    ax_a.legend(fontsize=7, loc="lower left")
+    ax_b.legend(fontsize=7, loc="lower left")
+    if len(Rs) >= 2:
+        R = np.array(Rs)
+        xs = np.linspace(R.min() * 0.9, R.max() * 1.1, 100)
+        ax_c.plot(xs, np.sqrt(2 * g * xs * r_b), "k:", lw=1, label=r"$\sqrt{2gR}$")
+        pw = silo.scaling_exponent(R, vp, vp_se)
+        ax_c.plot(xs, pw["prefactor"] * xs ** pw["exponent"], "k--", lw=1,
+                  label=f"plane: $R^a$, a = {_pm(pw['exponent'], pw['exponent_se'], '.2f')}")
+        sh = silo.shifted_power_fit(R, vp, vp_se)
+        if np.isfinite(sh["exponent"]):
+            xx = xs[xs > sh["x0"]]
+            ax_c.plot(xx, sh["prefactor"] * (xx - sh["x0"]) ** sh["exponent"], "b-", lw=1,
+                      label=f"plane: $A(R-R_0)^b$, b = {_pm(sh['exponent'], sh['exponent_se'], '.2f')}, "
+                            f"$R_0$ = {sh['x0']:.2g} $r_b$")
+        kw = silo.scaling_exponent(R, vk)
+        if np.isfinite(kw["exponent"]):
+            ax_c.plot(xs, kw["prefactor"] * xs ** kw["exponent"], color="0.5", ls="-.", lw=1,
+                      label=f"kernel node (open): $R^a$, a = {kw['exponent']:.2f}")
+        ax_c.legend(fontsize=7, loc="lower right")
+    elif not Rs:
+        _unavailable(ax_c, "v_c")
+    return _finish(fig, cases, path)
+
+
 def fig06_contact_pressure(cases: list[dict], path) -> Figure:
     """Paper figure 6: contact pressure :math:`p^c`, (a) map and (b) on the axis.
 

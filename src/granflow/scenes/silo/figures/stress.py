@@ -40,7 +40,7 @@ from .common import (
     _reference,
     _species_label,
 )
-from .discharge import fig02_flow_rate, fig03_fields, fig04_phi_orifice, fig05_vz_orifice, fig06_contact_pressure
+from .discharge import fig02_flow_rate, fig03_fields, fig04_phi_orifice, fig05_vz_orifice, fig05d_orifice_plane, fig06_contact_pressure
 
 
 def fig07_kinetic_pressure_maps(cases: list[dict], path) -> Figure:
@@ -372,6 +372,7 @@ SILO_FIGURES = {
     "fig03_fields": fig03_fields,
     "fig04_phi_orifice": fig04_phi_orifice,
     "fig05_vz_orifice": fig05_vz_orifice,
+    "fig05d_orifice_plane": fig05d_orifice_plane,
     "fig06_contact_pressure": fig06_contact_pressure,
     "fig07_kinetic_pressure_maps": fig07_kinetic_pressure_maps,
     "fig08_kinetic_axis": fig08_kinetic_axis,

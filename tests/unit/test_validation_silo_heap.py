@@ -97,8 +97,10 @@ def silo_case(root: Path, R_over_rb: float, status: str = "steady", max_overlap:
                "v_c": V_COEF * math.sqrt(R), "v_c_se": 0.01, "phi_c": PHI, "h_c": h_c, "h_c_over_R": H_C_OVER_R,
                "h_c_over_R_se": 0.02, "sqrt_profile_deviation": 0.0, "n_deviation": 6, "t_start": 0.3, "t_end": 1.5,
                "window": 0.05,
-               # the kernel scan: h_c/R at w = 0.5 r_b 10 % lower at every R (the collapse holds, the value moves)
-               "h_c_over_R_w0.5": 0.9 * H_C_OVER_R, "h_c_over_R_w0.5_se": 0.03,
+               # the kernel scan: h_c/R at w = 1 r_b 10 % lower at every R (the collapse holds, the value moves);
+               # w = 0.5 r_b is narrower than the 1 r_b nodes: no variant, however far off
+               "h_c_over_R_w1": 0.9 * H_C_OVER_R, "h_c_over_R_w1_se": 0.03,
+               "h_c_over_R_w0.5": 0.3 * H_C_OVER_R * (R_over_rb / 6) ** 0.5, "h_c_over_R_w0.5_se": 0.03,
                "h_c_over_R_w2": H_C_OVER_R, "h_c_over_R_w2_se": 0.02,
                # the kernel-free reading (analysis/orifice.py): downwards, sqrt(R) at the headline slab
                "plane_slab_half": 0.5, "W_plane": float(W), "W_plane_se": 0.01 * float(W)}
@@ -168,17 +170,22 @@ def test_silo_recovers_beverloo_and_the_paper_shapes(tmp_path):
     expect = sl.scaling_exponent(Rs, W / (RHO_P * PHI * V_COEF * np.sqrt(Rs) * np.pi * Rs**2))["exponent"]
     assert_allclose(flow_scale.ours, expect, rtol=1e-9)
     assert flow_scale.paper_range == (0.0, 0.0)
-    # h_c/R is the same at every R: h_c ∝ R; the w = 0.5 scan is 10 % lower at every R, so the exponent
-    # does not move with it; the node-third tilt does
+    # h_c/R is the same at every R: h_c ∝ R; the w = 1 scan is 10 % lower at every R, so the exponent
+    # does not move with it; the node-third tilt does; w = 0.5 (below the node spacing) is left out
     (beta,) = by_quantity(result, "h_c ∝ R^β")
     assert_allclose(beta.ours, 1.0, atol=1e-9)
     assert beta.verdict.startswith(("equal", "within"))
-    assert "kernel w = 0.5 r_b: 1" in beta.variants and "tilted" in beta.variants and beta.syst > 0
+    assert "kernel w = 1 r_b: 1" in beta.variants and "node resolution" in beta.variants
+    assert "w = 0.5" not in beta.variants
+    # the only syst left is the node resolution: (1 r_b / 3)/sqrt(3) on each h_c, through the log fit
+    Rs = np.array([6.0, 7.5, 9.0, 10.5, 12.0])
+    node = sl.weighted_line_fit(np.log(Rs), np.log(H_C_OVER_R * Rs), 1 / 3 / math.sqrt(3) / (H_C_OVER_R * Rs))
+    assert_allclose(beta.syst, node["slope_se"], rtol=1e-9)
     for c in by_quantity(result, "h_c/R (kinetic"):
         # the analysis's own error (no dumps), value from the scalars; syst: the w scan and a third of a node
         assert_allclose([c.ours, c.error], [H_C_OVER_R, 0.02])
         R_over_rb = float(c.case.split("~")[1])
-        assert_allclose(c.syst, math.hypot(0.1 * H_C_OVER_R, 1 / 3 / R_over_rb))
+        assert_allclose(c.syst, math.hypot(0.1 * H_C_OVER_R, 1 / 3 / math.sqrt(3) / R_over_rb))
         assert c.paper_range is None
     # W_r equals W_f in every window: ratio 1, error from W_f's alone (the W_r series is constant)
     for c in by_quantity(result, "W_r/W_f"):

@@ -265,9 +265,19 @@ def flow_scale_check(cases: list[SiloCase]) -> Check:
                  syst=syst, variants=text)
 
 
-def _node_third(c: SiloCase) -> float:
-    """A third of the node spacing, in units of R: how far a skewed peak's refined position may be off."""
-    return c.record["cg"]["node_spacing"] / 3.0 / c.R_over_rb
+def _resolved_widths(c: SiloCase, widths) -> list[str]:
+    """The scan's kernel widths (as written in the keys) other than the main fields' that the nodes
+    resolve: a kernel narrower than the node spacing cannot place a peak between nodes, so it is no
+    measurement variant (the paper's w = r_b/2 needs nodes r_b/4 apart)."""
+    cg = c.record["cg"]
+    return [w for w in sorted(widths, key=float)
+            if float(w) != cg["w_fields"] and float(w) >= cg["node_spacing"] - 1e-12]
+
+
+def _node_sigma(c: SiloCase) -> float:
+    """The refined peak's resolution error in units of R: anywhere within a third of the node spacing
+    (how far a skewed peak's refined position may be off), uniform, so sigma = (spacing/3)/sqrt(3)."""
+    return c.record["cg"]["node_spacing"] / 3.0 / math.sqrt(3.0) / c.R_over_rb
 
 
 def collapse_check(cases: list[SiloCase]) -> Check:
@@ -284,10 +294,8 @@ def collapse_check(cases: list[SiloCase]) -> Check:
         mean = np.sum(w * y) / np.sum(w)
         mean_se = np.sqrt(1 / np.sum(w)) if np.all(np.isfinite(se)) else np.nan
         alt = {}
-        for wk in sorted({k.rsplit("_w", 1)[1] for c in ok for k in c.scalars
-                          if k.startswith("h_c_over_R_w") and not k.endswith("_se")}, key=float):
-            if float(wk) == ok[0].record["cg"]["w_fields"]:
-                continue
+        for wk in _resolved_widths(ok[0], {k.rsplit("_w", 1)[1] for c in ok for k in c.scalars
+                                           if k.startswith("h_c_over_R_w") and not k.endswith("_se")}):
             yw = np.array([c.get(f"h_c_over_R_w{wk}") for c in ok])
             sw = np.array([c.get(f"h_c_over_R_w{wk}_se") for c in ok])
             alt[f"kernel w = {wk} r_b"] = sl.scaling_exponent(R, yw * R, sw * R)["exponent"]
@@ -295,11 +303,15 @@ def collapse_check(cases: list[SiloCase]) -> Check:
         if inside.sum() >= 2:
             alt[f"R ≥ {PAPER_R_RANGE[0]:g} r_b only"] = sl.scaling_exponent(R[inside], (y * R)[inside],
                                                                            (se * R)[inside])["exponent"]
-        # the refined peak a third of a node off, in opposite directions at the two ends of the sweep
-        third = np.array([_node_third(c) for c in ok])
-        tilt = np.linspace(1.0, -1.0, len(ok))
-        alt["peaks ± a third of a node, tilted"] = sl.scaling_exponent(R, (y + tilt * third) * R, se * R)["exponent"]
         syst, text = systematic(fit["exponent"], alt)
+        # the refined peak anywhere within a third of a node: uniform, sigma = third/sqrt(3) per case,
+        # independent; its share of the exponent's error joins the syst in quadrature
+        node = np.array([_node_sigma(c) for c in ok])
+        # the slope's error from these errors alone (no chi^2 scaling): 1/sqrt(sum w (x - x_w)^2)
+        x, w = np.log(R), (y / node) ** 2
+        node_se = float(1.0 / np.sqrt(np.sum(w * (x - np.sum(w * x) / np.sum(w)) ** 2)))
+        text += f"; node resolution (a third of a node, uniform): ±{node_se:.3g}"
+        syst = math.hypot(syst if math.isfinite(syst) else 0.0, node_se)
         lin = sl.weighted_line_fit(R / ok[0].record["r_b"], y * R / ok[0].record["r_b"], se * R / ok[0].record["r_b"])
         R0 = -lin["intercept"] / lin["slope"] if lin["slope"] else float("nan")
         h = ok[0].record["cg"]["node_spacing"]
@@ -308,7 +320,8 @@ def collapse_check(cases: list[SiloCase]) -> Check:
                 f"h_c = β'(R − R0): β' = {_pm(lin['slope'], lin['slope_se'])}, R0 = {R0:.2g} r_b (0 when the profiles "
                 "collapse); the paper gives no value of h_c/R, only the collapse. p^k is from time-averaged fields "
                 "(the spread of the mean flow inside the kernel counts as kinetic pressure; the paper's eq. 7 takes "
-                "fluctuations about the instantaneous local mean): not varied here")
+                "fluctuations about the instantaneous local mean): not varied here; kernel widths below the node "
+                f"spacing ({h:g} r_b) are no variant (they cannot place a peak between nodes)")
     else:
         note = f"fewer than 2 steady orifices with h_c ({len(ok)}): no exponent"
     return Check("h_c ∝ R^β: exponent β", "1 (the axis profiles collapse on z/R)", "§3, Fig. 8",
@@ -355,17 +368,18 @@ def transition_check(case: SiloCase) -> Check:
     scan = ", ".join(f"{_pm(case.get(k), case.get(k + '_se'), '.2f')} at w = {k.rsplit('_w', 1)[1]} r_b"
                      for k in sorted(case.scalars) if k.startswith("h_c_over_R_w") and not k.endswith("_se"))
     spacing = case.record["cg"]["node_spacing"] / case.R_over_rb
-    alt = {f"kernel w = {k.rsplit('_w', 1)[1]} r_b": case.get(k) for k in sorted(case.scalars)
-           if k.startswith("h_c_over_R_w") and not k.endswith("_se")
-           and float(k.rsplit("_w", 1)[1]) != case.record["cg"]["w_fields"]}
+    widths = _resolved_widths(case, {k.rsplit("_w", 1)[1] for k in case.scalars
+                                     if k.startswith("h_c_over_R_w") and not k.endswith("_se")})
+    alt = {f"kernel w = {wk} r_b": case.get(f"h_c_over_R_w{wk}") for wk in widths}
     syst_w, text = systematic(case.get("h_c_over_R"), alt)
-    third = _node_third(case)
-    syst = math.hypot(syst_w if math.isfinite(syst_w) else 0.0, third)
-    text = (text + "; " if text else "") + f"peak a third of a node off: ±{third:.3f}"
+    node = _node_sigma(case)
+    syst = math.hypot(syst_w if math.isfinite(syst_w) else 0.0, node)
+    text = (text + "; " if text else "") + f"node resolution (a third of a node, uniform): ±{node:.3f}"
     note = ("main fields, w = 2 r_b" + (f"; kernel scan: {scan} (the paper: h_c does not move with w, Fig. 9)"
                                          if scan else "")
             + f"; nodes {spacing:.2f} R apart: a skewed peak's refined position can be off by a third of that; "
-            "syst: the largest shift over the kernel widths and that third in quadrature"
+            "syst: the largest shift over the kernel widths the nodes resolve (w ≥ the node spacing) and that "
+            "third (as a uniform error, /√3) in quadrature"
             + (f"; {case.error_note}" if case.error_note else ""))
     return Check(q, paper, source, case.get("h_c_over_R"), case.errors.get("h_c_over_R"), case=case.name, note=note,
                  syst=syst, variants=text)

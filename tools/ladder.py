@@ -1,0 +1,227 @@
+"""A ladder toward a paper: one knob at a time from the validation case, error against the paper vs CPU-hours.
+
+  python tools/ladder.py prepare config/ladders/silo.yaml --results /work/keep/ladders
+  python tools/ladder.py record  config/ladders/silo.yaml --results /work/keep/ladders
+
+A ladder file (``config/ladders/<scene>.yaml``) names a scene, its rung, a sweep and a list of
+rungs, each a set of scene-file changes (``set:``, dotted keys as ``--set``) with the knob it
+turns in words; ``planned:`` rungs are only priced. ``prepare`` writes, per rung, the changed
+scene file (validated by the scene's schema and pre-run checks exactly as a campaign's) and a
+one-scene campaign under ``<results>/<scene>/<rung>/``, prices it with the cost model
+(``granflow plan``) and prints the Snakemake command that runs it (every run resumes from its
+restarts, so a rung may take several sittings). ``record`` runs the scene's own validation
+(:meth:`granflow.registry.Scene.validation`, as ``make validate``) on each rung's analysed
+cases, keeps the ladder's headline checks and writes ``validation/<scene>/ladder.csv``,
+``ladder.md`` and ``figures/ladder.png``: |difference from the paper| (relative, with the
+combined stat ⊕ syst error) against the rung's measured CPU-hours, the planned rungs at their
+priced CPU-hours. Nothing here tunes anything: each rung is what the physics gives.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shlex
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "src"))
+
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+import yaml  # noqa: E402
+
+from granflow import registry  # noqa: E402
+from granflow.campaign import load_campaign  # noqa: E402
+from granflow.config import apply_overrides, load_scene, load_yaml  # noqa: E402
+from granflow.validation import case_summary  # noqa: E402
+
+
+def load_ladder(path: Path) -> dict:
+    data = load_yaml(path)
+    for key in ("scene", "rung", "scene_file", "rungs", "headlines"):
+        if key not in data:
+            raise SystemExit(f"ladder: {path}: missing key {key!r}")
+    registry.get(data["scene"])            # refuses an unknown scene by name
+    return data
+
+
+def rung_dir(results: Path, ladder: dict, name: str) -> Path:
+    return Path(results) / ladder["scene"] / name
+
+
+def _overrides(rung: dict) -> list[str]:
+    return [f"{k}={json.dumps(v) if not isinstance(v, str) else v}" for k, v in (rung.get("set") or {}).items()]
+
+
+def write_rung(ladder: dict, rung: dict, results: Path) -> tuple[Path, Path]:
+    """The rung's scene file (the ladder's, changed) and its one-scene campaign; both validated."""
+    out = rung_dir(results, ladder, rung["name"])
+    out.mkdir(parents=True, exist_ok=True)
+    scene_data = apply_overrides(load_yaml(ROOT / ladder["scene_file"]), _overrides(rung))
+    scene_file = out / "scene.yaml"
+    head = f"# ladder rung {rung['name']}: {rung['knob']}\n# {ladder['scene_file']} with {rung.get('set') or {}}\n"
+    text = head + yaml.safe_dump(scene_data, sort_keys=False, allow_unicode=True)
+    if not scene_file.exists() or scene_file.read_text() != text:   # unchanged: keep its time stamp
+        scene_file.write_text(text)
+    load_scene(scene_file)
+    campaign = {"rung": rung.get("rung", ladder["rung"]), "results_dir": str(out / "results"),
+                "scenes": {name: {"enabled": False} for name in registry.names() if name != ladder["scene"]}}
+    campaign["scenes"][ladder["scene"]] = {"enabled": True, "scene_file": str(scene_file),
+                                           "sweep": ladder.get("sweep") or {}}
+    campaign_file = out / "campaign.yaml"
+    text = yaml.safe_dump(campaign, sort_keys=False)
+    if not campaign_file.exists() or campaign_file.read_text() != text:
+        campaign_file.write_text(text)
+    return scene_file, campaign_file
+
+
+def plan(campaign_file: Path) -> dict:
+    from granflow.resources import plan_campaign
+
+    cfg = load_campaign(campaign_file, root=ROOT)
+    return plan_campaign(cfg, Path(cfg["results_dir"]))
+
+
+def targets(plan_: dict) -> list[str]:
+    return [str(Path(r["case_dir"]) / "analysis") for r in plan_["rows"]]
+
+
+def cmd_prepare(args) -> int:
+    ladder = load_ladder(args.ladder)
+    for rung in ladder["rungs"] + ladder.get("planned", []):
+        _, campaign = write_rung(ladder, rung, args.results)
+        p = plan(campaign)
+        tot = p["total"]
+        kind = "planned (not run)" if rung in ladder.get("planned", []) else "to run"
+        print(f"# {rung['name']}: {rung['knob']} [{kind}]: {tot.get('cpu_hours', float('nan')):.2f} CPU-h upper bound, "
+              f"{sum(1 for r in p['rows'] if r.get('state') == 'done')}/{len(p['rows'])} cases done")
+        if rung not in ladder.get("planned", []):
+            print("snakemake " + " ".join(shlex.quote(t) for t in targets(p))
+                  + f" --configfile {shlex.quote(str(campaign))} --cores 1 --set-threads simulate=1")
+    return 0
+
+
+def rung_checks(ladder: dict, rung: dict, results: Path) -> tuple[list, list[dict]]:
+    """(the headline checks of the rung's analysed cases, their case summaries)."""
+    base = rung_dir(results, ladder, rung["name"]) / "results" / ladder["scene"] / rung.get("rung", ladder["rung"])
+    cases = {str(p.parent.parent.relative_to(base)): p.parent.parent
+             for p in sorted(base.glob("**/analysis/scalars.json"))}
+    if not cases:
+        return [], []
+    result = registry.get(ladder["scene"]).validation(base, cases)
+    keep = [c for c in result.checks if any(c.quantity.startswith(h) for h in ladder["headlines"])]
+    return keep, [case_summary(p) for p in cases.values()]
+
+
+def _rel_error(check) -> float:
+    """The check's combined error (stat ⊕ syst) relative to the paper's nearest value (absolute against 0)."""
+    lo, hi = sorted(check.paper_range)
+    nearest = min(max(check.ours, lo), hi)
+    err = math.hypot(*(e if math.isfinite(e) else 0.0 for e in (check.error, check.syst)))
+    return err / abs(nearest) if nearest else err
+
+
+def table(ladder: dict, results: Path) -> pd.DataFrame:
+    rows = []
+    for rung in ladder["rungs"]:
+        checks, cases = rung_checks(ladder, rung, results)
+        cpu = sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"]))
+        if not checks:
+            rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "not run", "cpu_hours": np.nan})
+        for c in checks:
+            rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "run", "quantity": c.quantity,
+                         "paper": c.paper, "ours": c.ours, "stat": c.error, "syst": c.syst, "verdict": c.verdict,
+                         "abs_rel_difference": abs(c.difference) if math.isfinite(c.difference) else np.nan,
+                         "rel_error": _rel_error(c) if c.paper_range and math.isfinite(c.ours) else np.nan,
+                         "cases": len(cases), "particles": ", ".join(sorted({f"{c['particles']:,}" for c in cases
+                                                                             if c.get("particles")})),
+                         "cpu_hours": cpu})
+    for rung in ladder.get("planned", []):
+        _, campaign = write_rung(ladder, rung, results)
+        p = plan(campaign)
+        rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "planned (cost model, not run)",
+                     "cases": len(p["rows"]), "particles": ", ".join(f"{r['particles']:,}" for r in p["rows"]),
+                     "cpu_hours": p["total"]["cpu_hours"]})
+    return pd.DataFrame(rows)
+
+
+def figure(df: pd.DataFrame, ladder: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    run = df[df["state"] == "run"]
+    heads = list(dict.fromkeys(run["quantity"])) if len(run) else []
+    fig, axes = plt.subplots(1, max(1, len(heads)), figsize=(4.6 * max(1, len(heads)), 4.2), squeeze=False)
+    planned = df[df["state"].str.startswith("planned")]
+    for ax, q in zip(axes[0], heads):
+        sub = run[run["quantity"] == q]
+        for i, (_, r) in enumerate(sub.iterrows()):
+            ax.errorbar([r["cpu_hours"]], [r["abs_rel_difference"]], yerr=[r["rel_error"]], marker="os^Dv<>"[i % 7],
+                        capsize=3, ls="none", label=r["rung"])
+        for _, r in planned.iterrows():
+            ax.axvline(r["cpu_hours"], color="0.5", ls=":", lw=1)
+            ax.text(r["cpu_hours"], ax.get_ylim()[1] * 0.95, f" {r['rung']}: {r['cpu_hours']:.3g} CPU-h (planned)",
+                    rotation=90, va="top", ha="right", fontsize=7, color="0.4")
+        ax.set(xscale="log", xlabel="CPU-hours (the rung's cases)", ylabel="|ours − paper| / paper",
+               title=q if len(q) < 48 else q[:46] + "…")
+        ax.title.set_fontsize(8)
+        ax.set_ylim(bottom=0)
+        ax.legend(fontsize=7)
+    fig.suptitle(f"{ladder['scene']} ladder (rung {ladder['rung']}, sweep {ladder.get('sweep')}): error against the "
+                 "paper (bars: stat ⊕ syst) vs cost", fontsize=9)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+
+
+def markdown(df: pd.DataFrame, ladder: dict) -> str:
+    text = (f"### {ladder['scene']}: ladder toward the paper (rung {ladder['rung']}, sweep {ladder.get('sweep')})\n\n"
+            "One knob per rung from the validation case (`config/ladders/" + f"{ladder['scene']}.yaml`, "
+            "`tools/ladder.py`); each headline by the scene's own validation, ours ± stat ± syst; CPU-hours "
+            "measured (planned rungs: the cost model's upper bound).\n\n"
+            "| rung | knob | quantity | ours ± stat ± syst | paper | verdict | CPU-h |\n|---|---|---|---|---|---|---|\n")
+    for _, r in df.iterrows():
+        if r["state"] != "run":
+            text += f"| {r['rung']} | {r['knob']} | – | {r['state']} | | | {r['cpu_hours']:.3g} |\n"
+            continue
+        syst = f" ± {r['syst']:.2g}" if math.isfinite(r["syst"]) else ""
+        stat = f" ± {r['stat']:.2g}" if math.isfinite(r["stat"]) else ""
+        text += (f"| {r['rung']} | {r['knob']} | {r['quantity']} | {r['ours']:.3g}{stat}{syst} | {r['paper']} | "
+                 f"{r['verdict']} | {r['cpu_hours']:.2f} |\n")
+    return text + "\n"
+
+
+def cmd_record(args) -> int:
+    ladder = load_ladder(args.ladder)
+    df = table(ladder, args.results)
+    out = ROOT / "validation" / ladder["scene"] if args.out is None else Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    df.to_csv(out / "ladder.csv", index=False, float_format="%.6g")
+    (out / "ladder.md").write_text(markdown(df, ladder))
+    figure(df, ladder, out / "figures" / "ladder.png")
+    print(markdown(df, ladder))
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     epilog=__doc__.split("\n\n", 1)[1])
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name, func, helptext in (("prepare", cmd_prepare, "write the rungs' scene files and campaigns, price them"),
+                                 ("record", cmd_record, "the ladder's table and figure from the analysed rungs")):
+        p = sub.add_parser(name, help=helptext)
+        p.add_argument("ladder", type=Path, help="ladder file, e.g. config/ladders/silo.yaml")
+        p.add_argument("--results", type=Path, required=True, help="where the rungs' runs live")
+        if name == "record":
+            p.add_argument("--out", default=None, help="folder of the record (default validation/<scene>)")
+        p.set_defaults(func=func)
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -115,6 +115,44 @@ def rung_checks(ladder: dict, rung: dict, results: Path) -> tuple[list, list[dic
     return keep, [case_summary(p) for p in cases.values()]
 
 
+def committed_checks(ladder: dict) -> tuple[list, list[dict]]:
+    """The base rung read from the committed record (``validation/<scene>/summary.json``) when its runs
+    are not at hand: the headline checks of the cases matching the ladder's sweep (each key with one value,
+    named ``key~value`` in the case), or sweep-wide ones."""
+    from granflow.validation import Check
+
+    path = ROOT / "validation" / ladder["scene"] / "summary.json"
+    if not path.exists():
+        return [], []
+    summary = json.loads(path.read_text())
+    values = [v[0] for v in (ladder.get("sweep") or {}).values() if len(v) == 1]
+
+    def matches(case: str) -> bool:
+        parts = [p.split("~", 1)[1] for p in case.split("/") if "~" in p]
+        return all(any(_same(p, v) for p in parts) for v in values)
+
+    keep, dirs = [], set()
+    for c in summary["checks"]:
+        if any(c["quantity"].startswith(h) for h in ladder["headlines"]) and (c["case"] == "sweep" or matches(c["case"])):
+            nan = float("nan")
+            keep.append(Check(c["quantity"], c["paper"], c["source"], nan if c["ours"] is None else c["ours"],
+                              nan if c.get("error") is None else c["error"], case=c["case"],
+                              paper_range=tuple(c["paper_range"]) if c.get("paper_range") else None,
+                              paper_error=c.get("paper_error") or 0.0, note=c.get("note", ""),
+                              syst=nan if c.get("syst") is None else c["syst"], variants=c.get("variants", "")))
+            dirs.add(c["case"])
+    cases = [dict(c, cpu_hours=float("nan") if c.get("cpu_hours") is None else c["cpu_hours"])
+             for c in summary["cases"] if c["dir"] in dirs or "sweep" in dirs]
+    return keep, cases
+
+
+def _same(text: str, value) -> bool:
+    try:
+        return math.isclose(float(text), float(value))
+    except ValueError:
+        return text == str(value)
+
+
 def _rel_error(check) -> float:
     """The check's combined error (stat ⊕ syst) relative to the paper's nearest value (absolute against 0)."""
     lo, hi = sorted(check.paper_range)
@@ -127,11 +165,15 @@ def table(ladder: dict, results: Path) -> pd.DataFrame:
     rows = []
     for rung in ladder["rungs"]:
         checks, cases = rung_checks(ladder, rung, results)
+        state = "run"
+        if not checks and not rung.get("set") and not rung.get("rung"):
+            checks, cases = committed_checks(ladder)
+            state = "run (the committed record)"
         cpu = sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"]))
         if not checks:
             rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "not run", "cpu_hours": np.nan})
         for c in checks:
-            rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "run", "quantity": c.quantity,
+            rows.append({"rung": rung["name"], "knob": rung["knob"], "state": state, "quantity": c.quantity,
                          "paper": c.paper, "ours": c.ours, "stat": c.error, "syst": c.syst, "verdict": c.verdict,
                          "abs_rel_difference": abs(c.difference) if math.isfinite(c.difference) else np.nan,
                          "rel_error": _rel_error(c) if c.paper_range and math.isfinite(c.ours) else np.nan,
@@ -153,7 +195,7 @@ def figure(df: pd.DataFrame, ladder: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    run = df[df["state"] == "run"]
+    run = df[df["state"].str.startswith("run")] if "state" in df else df.iloc[:0]
     heads = list(dict.fromkeys(run["quantity"])) if len(run) else []
     fig, axes = plt.subplots(1, max(1, len(heads)), figsize=(4.6 * max(1, len(heads)), 4.2), squeeze=False)
     planned = df[df["state"].str.startswith("planned")]
@@ -185,12 +227,13 @@ def markdown(df: pd.DataFrame, ladder: dict) -> str:
             "measured (planned rungs: the cost model's upper bound).\n\n"
             "| rung | knob | quantity | ours ± stat ± syst | paper | verdict | CPU-h |\n|---|---|---|---|---|---|---|\n")
     for _, r in df.iterrows():
-        if r["state"] != "run":
+        if not str(r["state"]).startswith("run"):
             text += f"| {r['rung']} | {r['knob']} | – | {r['state']} | | | {r['cpu_hours']:.3g} |\n"
             continue
         syst = f" ± {r['syst']:.2g}" if math.isfinite(r["syst"]) else ""
         stat = f" ± {r['stat']:.2g}" if math.isfinite(r["stat"]) else ""
-        text += (f"| {r['rung']} | {r['knob']} | {r['quantity']} | {r['ours']:.3g}{stat}{syst} | {r['paper']} | "
+        where = "" if r["state"] == "run" else f" ({r['state'][5:-1]})"
+        text += (f"| {r['rung']} | {r['knob']}{where} | {r['quantity']} | {r['ours']:.3g}{stat}{syst} | {r['paper']} | "
                  f"{r['verdict']} | {r['cpu_hours']:.2f} |\n")
     return text + "\n"
 

@@ -1,0 +1,60 @@
+"""tools/ladder.py: each rung's scene file is the ladder's with its knob turned, validated; planned rungs priced."""
+import importlib.util
+import math
+from pathlib import Path
+
+import pytest
+import yaml
+
+from granflow.config import ConfigError, load_scene
+
+ROOT = Path(__file__).resolve().parents[2]
+spec = importlib.util.spec_from_file_location("ladder_tool", ROOT / "tools" / "ladder.py")
+ladder_tool = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(ladder_tool)
+
+
+def test_each_rung_turns_one_knob_and_is_validated(tmp_path):
+    ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "silo.yaml")
+    base = load_scene(ROOT / ladder["scene_file"])
+    for rung in ladder["rungs"]:
+        scene_file, campaign_file = ladder_tool.write_rung(ladder, rung, tmp_path)
+        scene = load_scene(scene_file)
+        changed = {f"rungs.validation.{k}" for k in scene["rungs"]["validation"]
+                   if scene["rungs"]["validation"][k] != base["rungs"]["validation"].get(k)}
+        assert changed == set(rung.get("set") or {})          # exactly the rung's knob, nothing else
+        assert {k: v for k, v in scene.items() if k != "rungs"} == {k: v for k, v in base.items() if k != "rungs"}
+        campaign = yaml.safe_load(campaign_file.read_text())
+        assert [n for n, s in campaign["scenes"].items() if s["enabled"]] == ["silo"]
+        assert campaign["scenes"]["silo"]["sweep"] == {"R": [6.0, 12.0]}
+    # a second write leaves the files (and their time stamps) alone: Snakemake does not rerun a rung
+    before = scene_file.stat().st_mtime_ns
+    ladder_tool.write_rung(ladder, rung, tmp_path)
+    assert scene_file.stat().st_mtime_ns == before
+
+
+def test_a_knob_outside_the_schema_is_refused(tmp_path):
+    ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "silo.yaml")
+    bad = {"name": "bad", "knob": "a Young's modulus of zero", "set": {"rungs.validation.Y_factor": 0.0}}
+    with pytest.raises(ConfigError, match="Y_factor"):
+        ladder_tool.write_rung(ladder, bad, tmp_path)
+
+
+def test_planned_rungs_are_priced_and_unrun_rungs_said_so(tmp_path):
+    ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "silo.yaml")
+    ladder["rungs"] = ladder["rungs"][1:2]           # no base: nothing falls back to the committed record
+    df = ladder_tool.table(ladder, tmp_path)
+    assert list(df["state"]) == ["not run", "planned (cost model, not run)"]
+    paper = df[df["rung"] == "paper"].iloc[0]
+    assert paper["cpu_hours"] > 100 and math.isfinite(paper["cpu_hours"])
+    text = ladder_tool.markdown(df, ladder)
+    assert "| paper |" in text and "planned" in text
+    ladder_tool.figure(df, ladder, tmp_path / "ladder.png")
+    assert (tmp_path / "ladder.png").stat().st_size > 5_000
+
+
+def test_the_base_falls_back_to_the_committed_record():
+    ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "channel.yaml")
+    checks, cases = ladder_tool.committed_checks(ladder)
+    assert checks and all(c.quantity.startswith("u_max/u_slip") for c in checks)
+    assert all("phi~0.61" in c.case for c in checks) and all("phi~0.61" in c["dir"] for c in cases)

@@ -102,6 +102,9 @@ def silo_case(root: Path, R_over_rb: float, status: str = "steady", max_overlap:
                "h_c_over_R_w1": 0.9 * H_C_OVER_R, "h_c_over_R_w1_se": 0.03,
                "h_c_over_R_w0.5": 0.3 * H_C_OVER_R * (R_over_rb / 6) ** 0.5, "h_c_over_R_w0.5_se": 0.03,
                "h_c_over_R_w2": H_C_OVER_R, "h_c_over_R_w2_se": 0.02,
+               # eq. 7 at w = r_b/2 on r_b/4 nodes, and the time-averaged form on the same nodes
+               "h_c_over_R_eq7": 0.45, "h_c_over_R_eq7_se": 0.05, "h_c_over_R_fine": 0.30,
+               "pk_max_eq7": 40.0, "pk_max_fine": 100.0,
                # the kernel-free reading (analysis/orifice.py): downwards, sqrt(R) at the headline slab
                "plane_slab_half": 0.5, "W_plane": float(W), "W_plane_se": 0.01 * float(W)}
     v_plane = V_COEF * math.sqrt(R)
@@ -172,7 +175,7 @@ def test_silo_recovers_beverloo_and_the_paper_shapes(tmp_path):
     assert flow_scale.paper_range == (0.0, 0.0)
     # h_c/R is the same at every R: h_c ∝ R; the w = 1 scan is 10 % lower at every R, so the exponent
     # does not move with it; the node-third tilt does; w = 0.5 (below the node spacing) is left out
-    (beta,) = by_quantity(result, "h_c ∝ R^β")
+    (beta,) = [c for c in result.checks if c.quantity == "h_c ∝ R^β: exponent β"]
     assert_allclose(beta.ours, 1.0, atol=1e-9)
     assert beta.verdict.startswith(("equal", "within"))
     assert "kernel w = 1 r_b: 1" in beta.variants and "node resolution" in beta.variants
@@ -181,6 +184,12 @@ def test_silo_recovers_beverloo_and_the_paper_shapes(tmp_path):
     Rs = np.array([6.0, 7.5, 9.0, 10.5, 12.0])
     node = sl.weighted_line_fit(np.log(Rs), np.log(H_C_OVER_R * Rs), 1 / 3 / math.sqrt(3) / (H_C_OVER_R * Rs))
     assert_allclose(beta.syst, node["slope_se"], rtol=1e-9)
+    # the paper's way (eq. 7 at w = r_b/2): h_c/R = 0.45 at every R: beta = 1, the time-averaged form in the note
+    (eq7,) = by_quantity(result, "h_c ∝ R^β: exponent β (eq. 7")
+    assert_allclose(eq7.ours, 1.0, atol=1e-9)
+    assert eq7.verdict.startswith(("equal", "within")) and "0.30, 0.30" in eq7.note and "2.5 times" in eq7.note
+    node = sl.weighted_line_fit(np.log(Rs), np.log(0.45 * Rs), 0.25 / 3 / math.sqrt(3) / (0.45 * Rs))
+    assert_allclose(eq7.syst, node["slope_se"], rtol=1e-9)       # exact data: the fit range moves nothing
     for c in by_quantity(result, "h_c/R (kinetic"):
         # the analysis's own error (no dumps), value from the scalars; syst: the w scan and a third of a node
         assert_allclose([c.ours, c.error], [H_C_OVER_R, 0.02])

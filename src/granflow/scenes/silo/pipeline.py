@@ -11,6 +11,11 @@ from granflow.registry import finite as _finite
 from postproc.dump import particle_frames
 
 
+#: the paper's way for the kinetic pressure (its eq. 7, Figs. 8-12): w = r_b/2 on nodes r_b/4 apart,
+#: over the orifice's neighbourhood r < AXIS_R_MAX R, z < AXIS_Z_MAX R
+EQ7_W, EQ7_SPACING, AXIS_R_MAX, AXIS_Z_MAX = 0.5, 0.25, 1.5, 3.0
+
+
 # --------------------------------------------------------------------------- silo
 def silo_discharge_thermo(thermo: pd.DataFrame) -> pd.DataFrame:
     """Discharge rows with the deleted and re-inserted mass cumulated over segments.
@@ -41,6 +46,17 @@ def silo_grid(record: dict, spacing_rb: float) -> tuple[np.ndarray, np.ndarray]:
     return r_nodes, z_nodes
 
 
+def _near_orifice(frame, r_max: float, z_max: float):
+    """The frame's particles with r < r_max and z < z_max (those a kernel near the orifice reaches)."""
+    from dataclasses import replace
+
+    pos = frame.position
+    sel = (np.hypot(pos[:, 0], pos[:, 1]) < r_max) & (pos[:, 2] < z_max)
+    pick = {name: getattr(frame, name)[sel] for name in ("position", "velocity", "mass", "radius", "type", "id", "omega",
+                                                        "contact_stress_volume") if getattr(frame, name) is not None}
+    return replace(frame, **pick)
+
+
 def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tuple[float, float] | None = None,
                   record: dict | None = None, headline_only: bool = False) -> tuple[dict, dict]:
     """Discharge rates, steady window and coarse-grained fields of a finished silo case.
@@ -59,7 +75,10 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
     -------
     tables : dict of DataFrame
         ``flow`` (windowed W_f, W_r), ``fields``, ``contact``, ``kinetic_w<w>``, ``orifice_plane``
-        (:class:`~granflow.scenes.silo.analysis.orifice.PlaneCrossing`: the orifice without a kernel).
+        (:class:`~granflow.scenes.silo.analysis.orifice.PlaneCrossing`: the orifice without a kernel),
+        ``kinetic_eq7`` and ``kinetic_fine`` (the kinetic pressure at w = r_b/2 on nodes r_b/4 apart near
+        the orifice: the paper's eq. 7, :class:`postproc.fluctuation.FluctuationAccumulator`, and the
+        time-averaged form; scalars ``h_c_over_R_eq7``, ``h_c_over_R_fine`` with ``_se``).
     scalars : dict
     """
     import granflow.scenes.silo.analysis as sl
@@ -67,6 +86,8 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
     from postproc.coordinates import RZCoordinates
     from postproc.fields import FieldAccumulator
     from postproc.kernels import Gaussian
+
+    from postproc.fluctuation import FluctuationAccumulator
 
     from .analysis.orifice import PlaneCrossing
 
@@ -113,8 +134,18 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
                                coords, fields=("sigmac", "pc"), n_blocks=cg["n_blocks"])
     # the orifice without a kernel: particles within a thin slab about the orifice plane
     plane = None if headline_only else PlaneCrossing(R, r_b, n_blocks=cg["n_blocks"])
+    # the kinetic pressure the paper's way (eq. 7: about each frame's local mean) beside the time-averaged
+    # form, both at w = r_b/2 on nodes r_b/4 apart near the orifice; particles beyond the kernel's reach skipped
+    fine_nodes = (np.arange(0.0, AXIS_R_MAX * R + 0.5 * EQ7_SPACING * r_b, EQ7_SPACING * r_b),
+                  np.arange(-2 * r_b, AXIS_Z_MAX * R + 0.5 * EQ7_SPACING * r_b, EQ7_SPACING * r_b))
+    fine = {} if headline_only else {
+        "kinetic_eq7": FluctuationAccumulator(Gaussian.paper(EQ7_W * r_b, fine_nodes), coords, fields=("rho", "pk"),
+                                              n_blocks=cg["n_blocks"]),
+        "kinetic_fine": FieldAccumulator(Gaussian.paper(EQ7_W * r_b, fine_nodes), coords, fields=("rho", "u", "pk"),
+                                         n_blocks=cg["n_blocks"])}
+    reach = 2 * 4 * EQ7_W * r_b    # twice the cutoff: the frame's mean velocity at the grid's edge is complete
     accumulators = [main, *scan.values(), contact]
-    for acc in accumulators:
+    for acc in accumulators + list(fine.values()):
         acc.prepare()
     contact_frames = {}
     for name in ([] if headline_only else status.get("contact_dumps", [])):
@@ -132,6 +163,10 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
                 acc.accumulate(frame)
             if plane is not None:
                 plane.accumulate(frame)
+            if fine:
+                near = _near_orifice(frame, AXIS_R_MAX * R + reach, AXIS_Z_MAX * R + reach)
+                for acc in fine.values():
+                    acc.accumulate(near)
             if frame.timestep in contact_frames:
                 contact.accumulate(frame, contacts=contact_frames[frame.timestep])
     if not n_frames:
@@ -146,6 +181,13 @@ def silo_analysis(case_dir: str | Path, t_max: float | None = None, steady: tupl
     if plane is not None:
         tables["orifice_plane"], plane_scalars = plane.conclude()
         scalars.update(plane_scalars)
+    for name, acc in fine.items():
+        tables[name] = acc.conclude()
+        ax = sl.axis_profile(tables[name], "pk")
+        hw, hw_se = sl.transition_height(ax["z"], ax["value"], ax["value_se"])
+        key = "h_c_over_R_eq7" if name == "kinetic_eq7" else "h_c_over_R_fine"
+        scalars[key], scalars[key + "_se"] = hw / R, hw_se / R
+        scalars[key.replace("h_c_over_R", "pk_max")] = float(np.nanmax(ax["value"])) if len(ax) else float("nan")
     axis = sl.axis_profile(tables["fields"], "pk")
     h_c, h_c_se = sl.transition_height(axis["z"], axis["value"], axis["value_se"])
     scalars.update({"h_c": h_c, "h_c_se": h_c_se, "h_c_over_R": h_c / R, "h_c_over_R_se": h_c_se / R})

@@ -15,7 +15,7 @@ from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, SweepAxis
 from .parameters import discharge_verdict, gas_count, rim_ring, silo_parameters, species
 
 #: analysis tables of every case (plus kinetic_w<w> for each kernel width of cg.w_scan)
-TABLES = ("flow", "fields", "contact", "orifice_plane")
+TABLES = ("flow", "fields", "contact", "orifice_plane", "kinetic_eq7", "kinetic_fine")
 
 
 class SiloScene(Scene):

@@ -257,7 +257,7 @@ def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs
     for name in result.figures:
         src = Path(figures_dir) / f"{name}.png"
         if src.exists():
-            shutil.copyfile(src, out / "figures" / src.name)
+            copy_figure(src, out / "figures" / src.name)
     for rel, path in case_dirs.items():
         (out / "logs" / (rel.replace("/", "_") + ".txt")).write_text("\n".join(key_log_lines(Path(path))) + "\n")
     commits = sorted({c["granflow_commit"] for c in cases if c["granflow_commit"]})
@@ -277,6 +277,25 @@ def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs
         raise ValueError(f"validation record of {scene_name} is {size / 1e6:.2f} MB: allowed <= "
                          f"{MAX_SCENE_BYTES / 1e6:.1f} MB (fewer or smaller figures and profiles)")
     return summary
+
+
+def copy_figure(src: Path, dst: Path) -> None:
+    """Copy a PNG into the record as a 256-colour palette image when that is smaller (plots have few
+    colours; typically 3-4x smaller, keeping the record under :data:`MAX_SCENE_BYTES`), else as it is."""
+    shutil.copyfile(src, dst)
+    try:
+        from PIL import Image
+
+        with Image.open(src) as img:
+            small = img.convert("RGB").quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+            tmp = dst.with_suffix(".tmp.png")
+            small.save(tmp, optimize=True)
+        if tmp.stat().st_size < dst.stat().st_size:
+            tmp.replace(dst)
+        else:
+            tmp.unlink()
+    except (OSError, ValueError):
+        pass   # not a PNG Pillow reads: the plain copy stays
 
 
 def _fmt(x: float, err: float = float("nan"), syst: float | None = None) -> str:

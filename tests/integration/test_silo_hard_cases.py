@@ -29,3 +29,43 @@ def test_paper_stiffness_runs_clean_at_smoke_size(silo_scene, smoke_variant, tmp
     status = run_smoke(scene, tmp_path, {"R": 3.5})
     assert status["status"] == "completed", status
     assert status["max_overlap"] < 0.01  # stiff: overlaps of a fraction of a per cent of d_min
+
+
+def test_a_deep_deletion_plane_opens_the_floor_below_and_keeps_the_original_geometry_otherwise(silo_scene, smoke_variant,
+                                                                                               tmp_path):
+    """rungs.*.delete_depth: the floor becomes a plate (as thick as the rim's spheres) open below to R_c, and
+    particles are deleted that far below the orifice; unset, the deck and parameters are the original ones."""
+    from granflow.deck import render_case
+
+    render_case(silo_scene, "smoke", tmp_path / "orig", {"R": 3.5})
+    deep = smoke_variant(silo_scene, delete_depth=6.0)
+    render_case(deep, "smoke", tmp_path / "deep", {"R": 3.5})
+    orig_deck = (tmp_path / "orig" / "average.lmp").read_text()
+    deep_deck = (tmp_path / "deep" / "average.lmp").read_text()
+    assert "open union 2 main hole side in" in orig_deck and "basement" not in orig_deck
+    assert "open union 3 main hole basement side in" in deep_deck
+    import json
+
+    orig = json.loads((tmp_path / "orig" / "params.json").read_text())["parameters"]
+    rec = json.loads((tmp_path / "deep" / "params.json").read_text())
+    deep_p = rec["parameters"]
+    r_b = rec["r_b"]
+    assert "z_plate" not in orig and orig["z_delete"] == pytest.approx(-1.05 * r_b)
+    assert deep_p["z_delete"] == pytest.approx(-6.0 * r_b) and deep_p["z_lo"] < deep_p["z_delete"] - 3 * r_b
+    assert deep_p["z_plate"] == pytest.approx(-2 * rec["rim"]["radius"])
+
+
+@pytest.mark.lammps
+def test_a_deep_deletion_plane_runs_and_conserves_mass(silo_scene, smoke_variant, tmp_path, run_smoke):
+    """The plate geometry discharges: mass leaves only through the deletion plane, 6 r_b below the orifice."""
+    import pandas as pd
+
+    scene = smoke_variant(silo_scene, delete_depth=6.0, t_discharge=0.2, t_segment=0.1, t_average=0.2)
+    status = run_smoke(scene, tmp_path, {"R": 3.5})
+    assert status["status"] in ("completed", "steady"), status
+    th = pd.read_csv(tmp_path / "run" / "thermo.csv")
+    dis = th[th["stage"] == "average"]
+    deleted = dis.groupby("segment")["v_mdel"].last().sum()
+    assert deleted > 0
+    m0 = th[th["stage"] == "average"]["v_mtot"].iloc[0] + dis[dis["segment"] == dis["segment"].min()]["v_mdel"].iloc[0]
+    assert dis["v_mtot"].iloc[-1] + deleted == pytest.approx(m0, rel=1e-9)

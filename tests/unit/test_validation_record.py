@@ -146,3 +146,28 @@ def test_case_summary_keeps_the_runner_status_without_an_analysis(tmp_path):
 
     s = case_summary(_fixed_schedule_case(tmp_path / "b", None))
     assert (s["status"], s["reason"], s["run_status"]) == ("completed", "fixed schedule ran to its end", "completed")
+
+
+def test_record_figures_are_copied_as_smaller_palette_pngs(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from PIL import Image
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    x = np.linspace(0, 10, 400)
+    for k in range(6):
+        ax.errorbar(x[::20], np.sin(x[::20] + k), yerr=0.1, marker="os^Dv<"[k], label=f"case {k}")
+    ax.legend()
+    src, dst = tmp_path / "f.png", tmp_path / "out.png"
+    fig.savefig(src, dpi=150)
+    validation.copy_figure(src, dst)
+    assert dst.stat().st_size < src.stat().st_size
+    with Image.open(src) as a, Image.open(dst) as b:
+        assert a.size == b.size and b.format == "PNG"
+    # not an image Pillow reads: copied as it is
+    (tmp_path / "fake.png").write_bytes(b"\x89PNG fake")
+    validation.copy_figure(tmp_path / "fake.png", tmp_path / "copy.png")
+    assert (tmp_path / "copy.png").read_bytes() == b"\x89PNG fake"

@@ -252,7 +252,13 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
     gas = gas_lattice(scene, rung, int(case["seed"]))
     rim = rim_ring(R, sp[0]["radius"])
     z_top = gas["gas_top"] + 3 * r_b
-    box = {"x_lo": -R_c - 2 * r_b, "x_hi": R_c + 2 * r_b, "z_lo": -12 * r_b, "z_hi": z_top}
+    # the deletion plane: 1.05 r_b below the orifice in the orifice column (the original geometry), or
+    # delete_depth r_b below a floor plate as thick as the rim's spheres (open below to R_c)
+    depth = rung.get("delete_depth")
+    plate = depth is not None
+    z_delete = -(depth if plate else 1.05) * r_b
+    box = {"x_lo": -R_c - 2 * r_b, "x_hi": R_c + 2 * r_b, "z_lo": -max(12.0, (depth or 0.0) + 4.0) * r_b,
+           "z_hi": z_top}
     d_min = 2 * sp[0]["radius"]
     # fastest motion: free fall from the top of the gas to below the orifice, with margin
     v_max = 1.5 * math.sqrt(2 * g * (z_top - box["z_lo"]))
@@ -276,7 +282,7 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("x_hi", round(box["x_hi"], 12), "box: R_c + 2 r_b, m"),
         Param("z_lo", round(box["z_lo"], 12), "box bottom, below the orifice, m"),
         Param("z_hi", round(box["z_hi"], 12), "box top, above the gas, m"),
-        Param("z_delete", round(-1.05 * r_b, 12), "particles whose centre is below this are deleted, m"),
+        Param("z_delete", round(z_delete, 12), "particles whose centre is below this are deleted, m"),
         Param("z_hole", round(0.01 * r_b, 12), "top of the orifice column (just above the floor), m"),
         Param("ins_lo", round(ins_lo, 12), "re-insertion slab bottom (fill height + 1.5 r_b), m"),
         Param("ins_hi", round(ins_hi, 12), "re-insertion slab top, m"),
@@ -310,6 +316,9 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("n_evaporate", steps(rung["evaporate_interval"]), "steps between deletions below the orifice"),
         Param("n_max_delete", gas["n"], "most particles deleted at once (all of them)"),
     ]
+    if plate:
+        params.append(Param("z_plate", round(-2 * rim["radius"], 12),
+                            "underside of the floor plate (as thick as the rim's spheres), m"))
     for prm in params:
         _number(prm.value)
     n_seg = max(1, math.ceil(rung["t_discharge"] / t_segment - 1e-9))
@@ -321,6 +330,7 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         "effects": eff,
         "ntypes": len(sp),
         "rim_type": len(sp) + 1,
+        "plate": plate,
         "contact": contact_law_context(model),
         "species": [{"type": s["type"], "diameter": round(s["diameter"], 12), "mass": s["mass"]} for s in sp],
         "dump_columns": list(eff["dump_columns"]),

@@ -25,7 +25,7 @@ A_TRUE = 0.22            # exponent of delta/d_bar = C q*^a
 C_TRUE = 2.0
 SIGMA = 0.02             # log-normal noise on delta/d_bar
 X = np.arange(0.005, L, 0.01)          # streamwise bin centres, m (40 bins)
-EXPECTED_AXES = {"fig03_segregation": 1, "fig04_surface": 4, "fig05_velocity": 2, "fig06_streamwise": 4,
+EXPECTED_AXES = {"fig03_segregation": 1, "fig04_surface": 4, "fig04b_surface_shape": 2, "fig05_velocity": 2, "fig06_streamwise": 4,
                  "fig07_collapse": 2, "fig08_normal": 1, "fig09_all_cases": 2, "fig10_scaled": 4,
                  "fig11_qstar": 1}
 
@@ -77,7 +77,7 @@ def make_case(i: int, q0: float, d_mean: float, bidisperse: bool, rng) -> dict:
     scalars = dict(alpha_deg=ALPHA, alpha_se=0.07, v_r=V_R, v_r_se=2e-5, v_r_predicted=1.01 * V_R, L=L,
                    delta_mean=delta.mean(), delta_over_d=(delta / d_bar).mean(), tail_A=1.0, tail_k=k,
                    q_star_exponent=A_TRUE, q_star_prefactor=C_TRUE, q0=q0, t_start=10.0, t_end=15.0,
-                   surface_z0=z_surf0)
+                   surface_z0=z_surf0, x_feed=0.08, W=0.46)
     return dict(label=f"case {i}: {d_mean * 1e3:g} mm, q0={q0 * 1e4:g} cm²/s", bidisperse=bidisperse,
                 provenance=f"rung synthetic · W=0.46 m · T=0.013 m · t_c=1e-3 s · N={1000 * (i + 1)} · steady",
                 scalars=scalars, per_x=per_x, profile=profile, collapse=collapse, surface=surface,
@@ -85,6 +85,20 @@ def make_case(i: int, q0: float, d_mean: float, bidisperse: bool, rng) -> dict:
                 rise_by_x=pd.DataFrame(dict(x_lab=x_lab, v_r=V_R, v_r_se=2e-5)),
                 phi_columns=pd.concat(cols, ignore_index=True),
                 deposit=pd.DataFrame(dict(x_lab=x_lab, c_s=0.9 - 0.8 * x_lab / 0.46)) if bidisperse else None)
+
+
+def test_the_surface_shape_figure_reads_the_plane_of_a_planar_surface(cases, tmp_path):
+    from granflow.scenes.heap import figures as hf
+
+    fig = hf.fig04b_surface_shape(cases, tmp_path / "shape.png")
+    labels = " ".join(fig.axes[1].get_legend_handles_labels()[1])
+    angles = [float(part.split("°")[0]) for part in labels.split("α = ")[1:]]
+    assert angles and all(abs(a - ALPHA) < 0.1 for a in angles)    # a plane: middle and whole agree
+    # the residual from the planar middle's plane is the noise (0.2 mm), nothing more
+    for line in fig.axes[0].get_lines()[:3]:
+        y = np.asarray(line.get_ydata(), float)
+        if y.size > 2:
+            assert np.nanmax(np.abs(y)) < 0.5
 
 
 @pytest.fixture(scope="module")

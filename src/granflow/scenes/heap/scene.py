@@ -143,7 +143,7 @@ class HeapScene(Scene):
         scalars.update({
             "rung": record["rung"], "mixture": record["case"]["mixture"], "feed_rate": record["case"]["feed_rate"],
             "bidisperse": len(record["species"]) == 2,
-            "W": k["W"], "T": k["T"], "t_c": k["t_c"], "dt": record["dt"], "k_n": record["parameters"]["k_n"],
+            "W": k["W"], "T": k["T"], "x_feed": record["geometry"]["x_feed"], "t_c": k["t_c"], "dt": record["dt"], "k_n": record["parameters"]["k_n"],
             "status": verdict if status["status"] == "completed" else status["status"],
             "status_reason": "; ".join(problems) or (
                 f"the feed delivered {scalars['feed_rate_measured']:.4g} kg/s ({100 * scalars['feed_rate_error']:+.1f} % "

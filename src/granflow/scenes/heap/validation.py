@@ -28,7 +28,7 @@ import pandas as pd
 
 from granflow.plotting import _pm
 from granflow.registry import finite
-from granflow.validation import Check, ValidationResult, concat_profiles
+from granflow.validation import Check, ValidationResult, concat_profiles, systematic
 from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.heap.analysis as hp
@@ -59,7 +59,13 @@ PAPER_T_AVERAGE = 10.0
 #: the largest overlap a faithful run should keep, as a fraction of the smallest diameter
 OVERLAP_LIMIT = 0.01
 #: the scene's figures kept in the record
-FIGURES = ("fig04_surface", "fig06_streamwise", "fig07_collapse", "fig11_qstar")
+FIGURES = ("fig04_surface", "fig04b_surface_shape", "fig06_streamwise", "fig07_collapse", "fig11_qstar")
+#: the planar middle of the free surface (:data:`granflow.scenes.heap.analysis.ALPHA_PLANAR_MIDDLE`)
+ALPHA_MIDDLE = hp.ALPHA_PLANAR_MIDDLE
+#: its fit-range variants (the systematic error), the same fractions
+ALPHA_MIDDLE_VARIANTS = ((0.2, 0.8), (0.3, 0.7))
+#: fit-range variants of the exponential tail (z/δ), around the analysis's TAIL_RANGE
+TAIL_RANGE_VARIANTS = ((-1.8, -0.6), (-1.4, -0.8))
 #: collapsed profiles are kept down to this z/δ
 COLLAPSE_ZT_MIN = -3.0
 
@@ -146,8 +152,38 @@ def _not_measured(quantity: str, paper: str, source: str, case: HeapCase, **kw) 
 
 
 # --------------------------------------------------------------------------- per-case checks
+def _surface_grid(case: HeapCase):
+    """``(t, x_lab, z_s (n_t, n_x))`` of the case's free surface (``surface.csv``), or None."""
+    return hp.surface_grid(case.tables["surface"])
+
+
+def alpha_planar(case: HeapCase, middle=ALPHA_MIDDLE, frames: slice = slice(None)) -> tuple[float, float, float]:
+    """``(α, stat error, residual)`` of the plane fitted to the planar middle of the surface, degrees.
+
+    The plane :math:`z_s = z_0 - x \\tan\\alpha + v_r t` (:func:`~granflow.scenes.heap.analysis.fit_surface`)
+    over the columns between ``middle`` fractions of the flowing length (feed zone's edge to end wall);
+    its error is that of the mean of the per-frame angles, :math:`sd\\sqrt{g/n}` with their statistical
+    inefficiency g (surges span frames), or the fit's when larger.
+    """
+    from postproc.autocorr import statistical_inefficiency
+
+    grid = _surface_grid(case)
+    if grid is None:
+        return float("nan"), float("nan"), float("nan")
+    t, x, Z = grid
+    geometry = case.record["geometry"]
+    L = geometry["W"] - geometry["x_feed"]
+    fit = hp.fit_surface(t[frames], x, Z[frames], (geometry["x_feed"] + middle[0] * L, geometry["x_feed"] + middle[1] * L))
+    a_t = fit.alpha_t["alpha_deg"].dropna().to_numpy()
+    se = fit.alpha_se
+    if len(a_t) >= 4:
+        g = max(1.0, statistical_inefficiency(a_t))
+        se = max(se, float(np.std(a_t, ddof=1) * math.sqrt(g / len(a_t))))
+    return fit.alpha_deg, se, fit.residual_std
+
+
 def alpha_check(case: HeapCase) -> Check:
-    q = "dynamic angle of repose α"
+    q = "dynamic angle of repose α (planar middle of the surface)"
     if case.is_case(*PAPER_ALPHA_CASE):
         paper, source = f"{PAPER_ALPHA} ± {PAPER_ALPHA_SE}", "§3.1, Fig. 4b inset (1/2 mm, 33 g/s)"
         kw = dict(paper_range=(PAPER_ALPHA, PAPER_ALPHA), paper_error=PAPER_ALPHA_SE)
@@ -156,16 +192,26 @@ def alpha_check(case: HeapCase) -> Check:
         if case.is_case(PAPER_ALPHA_CASE[0], case.feed_rate):
             paper += "; its 1/2 mm runs are at 10, 33 and 120 g/s"
         source, kw = "§3.1; Table 1", {}
-    if not case.measured:
+    if not case.measured or _surface_grid(case) is None:
         return _not_measured(q, paper, source, case, unit="deg", **kw)
-    alpha, theta = case.get("alpha_deg"), float(case.record["geometry"]["theta_deg"])
-    note = ("plane z_s = z_0 − x tan α + v_r t fitted to the free surface (φ = 0.35) of every frame of the "
-            f"averaging window, columns downstream of the feed zone; the paper's base θ = {theta:g}° is 'slightly "
-            "less than the dynamic angle of repose' (§2.1)")
-    if alpha < theta:
-        note += "; ours is below θ: the surface is flatter than the base, the heap thickens towards the end wall"
-    return Check(q, paper, source, alpha, case.errors.get("alpha"), case=case.name, unit="deg",
-                 note=_with(note, case, errors=True), **kw)
+    theta = float(case.record["geometry"]["theta_deg"])
+    alpha, se, _ = alpha_planar(case)
+    n_t = len(_surface_grid(case)[0])
+    alt = {f"x over {lo:g}-{hi:g} of the flowing length": alpha_planar(case, (lo, hi))[0]
+           for lo, hi in ALPHA_MIDDLE_VARIANTS}
+    alt["first half of the window"] = alpha_planar(case, frames=slice(0, n_t // 2))[0]
+    alt["second half of the window"] = alpha_planar(case, frames=slice(n_t // 2, None))[0]
+    syst, text = systematic(alpha, alt)
+    lo, hi = ALPHA_MIDDLE
+    note = (f"plane z_s = z_0 − x tan α + v_r t fitted to the free surface (φ = 0.35) of every frame of the averaging "
+            f"window, over the planar middle: {lo:g}-{hi:g} of the flowing length from the feed zone's edge to the end "
+            "wall. The surface is S-shaped (figure fig04b_surface_shape): a flat patch where the fed particles land "
+            "and bounce and a flat pool against the end wall; the paper's heap (0.46 m) is long enough to have a "
+            f"planar middle. Over the whole surface (the earlier reading): {case.get('alpha_deg'):.2f}°. Error: "
+            f"the per-frame angles' correlation-aware error; the paper's base θ = {theta:g}° is 'slightly less "
+            "than the dynamic angle of repose' (§2.1)")
+    return Check(q, paper, source, alpha, se, case=case.name, unit="deg", note=_with(note, case), syst=syst,
+                 variants=text, **kw)
 
 
 def rise_check(case: HeapCase) -> Check:
@@ -205,8 +251,14 @@ def delta_check(case: HeapCase) -> Check:
         note += ("; the paper states 6-7 d for 1.5 mm at 33 g/s only; its Fig. 10(d) shows δ/d̄ of every case "
                  "(the 1/2 mm mixture included) with no clear trend: the band is its nearest statement, not a value "
                  "for this case")
+    alt = {}
+    for name, key in (("exponential fit × 2.3", "delta_exp"), ("linear extrapolation", "delta_lin")):
+        if key in case.tables["per_x"]:
+            alt[f"δ by {name}"] = hp.delta_over_local_d(case.tables["per_x"].assign(delta=case.tables["per_x"][key]))[0]
+    syst, text = systematic(value, alt)
+    note += "; syst: the paper's other two δ methods (§3.2.2), each over the same bins"
     return Check(q, paper, source, value, value * rel, case=case.name, paper_range=PAPER_DELTA_OVER_D,
-                 note=_with(note, case))
+                 note=_with(note, case), syst=syst, variants=text)
 
 
 def tail_checks(case: HeapCase) -> list[Check]:
@@ -222,10 +274,19 @@ def tail_checks(case: HeapCase) -> list[Check]:
     inflation = max(1.0, k_se / k_fit) if math.isfinite(k_se) and k_fit > 0 else 1.0
     a_note = (f"; error: the fit's (points taken as independent) × {inflation:.2g}, the ratio of k's error to its "
               "fit error" if inflation > 1 else "; error: the fit's, points taken as independent")
+    syst_a = syst_k = float("nan")
+    text_a = text_k = ""
+    col = case.tables["collapse"]
+    if not col.empty and {"zt", "ut"} <= set(col):
+        fits = {f"z/δ over {lo:g} to {hi:g}": hp.fit_exponential_tail(col["zt"], col["ut"], lo, hi)
+                for lo, hi in TAIL_RANGE_VARIANTS}
+        syst_a, text_a = systematic(case.get("tail_A"), {k: f.A for k, f in fits.items()})
+        syst_k, text_k = systematic(case.get("tail_k"), {k: f.k for k, f in fits.items()})
+        note += "; syst: the fit range"
     return [Check(qa, "2.4", source, case.get("tail_A"), case.get("tail_A_se") * inflation, case=case.name,
-                  paper_range=PAPER_TAIL_A, note=_with(note + a_note, case)),
+                  paper_range=PAPER_TAIL_A, note=_with(note + a_note, case), syst=syst_a, variants=text_a),
             Check(qk, "3.3", source, case.get("tail_k"), case.errors.get("tail_exponent"), case=case.name,
-                  paper_range=PAPER_TAIL_K, note=_with(note, case, errors=True))]
+                  paper_range=PAPER_TAIL_K, note=_with(note, case, errors=True), syst=syst_k, variants=text_k)]
 
 
 def methods_check(case: HeapCase) -> Check:

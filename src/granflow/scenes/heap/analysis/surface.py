@@ -59,6 +59,10 @@ CUTOFF_FRACTION = 0.1
 K_EXPONENTIAL = 2.3
 #: Range of :math:`z/\delta` of the exponential tail fit (paper, figure 7b).
 TAIL_RANGE = (-1.6, -0.7)
+#: the planar middle of the free surface, as fractions of the flowing length from the feed zone's edge
+#: to the end wall: away from the flat patch where the fed particles land and bounce (one bounce carries
+#: ~0.08 m on a 0.12 m heap; the paper's is 0.46 m long) and from the pool against the end wall
+ALPHA_PLANAR_MIDDLE = (0.25, 0.75)
 #: Fewest bins with a velocity inside the flowing layer for a usable profile.
 MIN_LAYER_POINTS = 3
 #: Range of :math:`x/L` over which mean thicknesses are reported (away from
@@ -496,6 +500,21 @@ def fit_surface(t, x_lab, z_s, x_range) -> SurfaceFit:
         n_points=int(ok.sum()), residual_std=float(s), x_range=(float(x_range[0]), float(x_range[1])),
         alpha_t=alpha_t, rise_by_x=rise,
     )
+
+
+def surface_grid(surface: pd.DataFrame):
+    """``(t, x_lab, z_s (n_t, n_x))`` of a :func:`surface_table` (``t, x_lab, z_s``; rows with an unknown
+    time or column dropped, duplicates averaged), or None without at least two times, three columns and
+    one finite height."""
+    if surface is None or surface.empty or not {"t", "x_lab", "z_s"} <= set(surface):
+        return None
+    s = surface.dropna(subset=["t", "x_lab"])
+    if s.empty or not np.isfinite(s["z_s"].to_numpy(float)).any():
+        return None
+    grid = s.pivot_table(index="t", columns="x_lab", values="z_s", aggfunc="mean", dropna=False)
+    if grid.shape[0] < 2 or grid.shape[1] < 3:
+        return None
+    return grid.index.to_numpy(float), grid.columns.to_numpy(float), grid.to_numpy(float)
 
 
 def rise_inefficiency(surface: pd.DataFrame, x_range) -> float:

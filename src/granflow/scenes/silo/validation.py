@@ -274,6 +274,14 @@ def _resolved_widths(c: SiloCase, widths) -> list[str]:
             if float(w) != cg["w_fields"] and float(w) >= cg["node_spacing"] - 1e-12]
 
 
+def _slope_error(R, y, sigma) -> float:
+    """The error of the exponent of :math:`y R \\propto R^\\beta` from per-point errors ``sigma`` of y alone
+    (no :math:`\\chi^2` scaling): :math:`1/\\sqrt{\\sum_i w_i (x_i - \\bar x_w)^2}`, x = ln R,
+    :math:`w_i = (y_i/\\sigma_i)^2`."""
+    x, w = np.log(R), (np.asarray(y) / np.asarray(sigma)) ** 2
+    return float(1.0 / np.sqrt(np.sum(w * (x - np.sum(w * x) / np.sum(w)) ** 2)))
+
+
 def _node_sigma(c: SiloCase) -> float:
     """The refined peak's resolution error in units of R: anywhere within a third of the node spacing
     (how far a skewed peak's refined position may be off), uniform, so sigma = (spacing/3)/sqrt(3)."""
@@ -307,9 +315,7 @@ def collapse_check(cases: list[SiloCase]) -> Check:
         # the refined peak anywhere within a third of a node: uniform, sigma = third/sqrt(3) per case,
         # independent; its share of the exponent's error joins the syst in quadrature
         node = np.array([_node_sigma(c) for c in ok])
-        # the slope's error from these errors alone (no chi^2 scaling): 1/sqrt(sum w (x - x_w)^2)
-        x, w = np.log(R), (y / node) ** 2
-        node_se = float(1.0 / np.sqrt(np.sum(w * (x - np.sum(w * x) / np.sum(w)) ** 2)))
+        node_se = _slope_error(R, y, node)
         text += f"; node resolution (a third of a node, uniform): ±{node_se:.3g}"
         syst = math.hypot(syst if math.isfinite(syst) else 0.0, node_se)
         lin = sl.weighted_line_fit(R / ok[0].record["r_b"], y * R / ok[0].record["r_b"], se * R / ok[0].record["r_b"])
@@ -352,8 +358,7 @@ def collapse_eq7_check(cases: list[SiloCase]) -> Check:
                                                                        (se * R)[inside])["exponent"]
     syst, text = systematic(fit["exponent"], alt)
     node = np.array([EQ7_SPACING / 3.0 / math.sqrt(3.0) / c.R_over_rb for c in ok])
-    x, w = np.log(R), (y / node) ** 2
-    node_se = float(1.0 / np.sqrt(np.sum(w * (x - np.sum(w * x) / np.sum(w)) ** 2)))
+    node_se = _slope_error(R, y, node)
     text += ("; " if text else "") + f"node resolution (a third of a node, uniform): ±{node_se:.3g}"
     syst = math.hypot(syst if math.isfinite(syst) else 0.0, node_se)
     per = ", ".join(f"{c.R_over_rb:g}: {_pm(c.get('h_c_over_R_eq7'), c.get('h_c_over_R_eq7_se'), '.2f')}" for c in ok)

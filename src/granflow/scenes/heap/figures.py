@@ -326,8 +326,8 @@ def fig04b_surface_shape(cases: list[dict], path) -> Figure:
             for ax in (ax_r, ax_s):
                 ax.axvspan(lo, hi, color="0.92", lw=0, zorder=0)
                 ax.axvline(x_feed, color="0.5", ls=":", lw=0.8)
-            ax_s.text(0.5 * (lo + hi), 0.02, "planar middle", transform=ax_s.get_xaxis_transform(), ha="center",
-                      fontsize=7, color="0.4")
+            ax_s.text(0.5 * (lo + hi), 0.97, "planar middle", transform=ax_s.get_xaxis_transform(), ha="center",
+                      va="top", fontsize=7, color="0.4")
         drawn = True
     if drawn:
         ax_r.axhline(0.0, color="k", lw=0.6)

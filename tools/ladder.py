@@ -170,6 +170,11 @@ def table(ladder: dict, results: Path) -> pd.DataFrame:
             checks, cases = committed_checks(ladder)
             state = "run (the committed record)"
         cpu = sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"]))
+        expected = math.prod(len(v) for v in (ladder.get("sweep") or {}).values())
+        if checks and state == "run" and len(cases) < expected:
+            rows.append({"rung": rung["name"], "knob": rung["knob"], "cases": len(cases), "cpu_hours": cpu,
+                         "state": f"incomplete: {len(cases)} of {expected} cases analysed"})
+            continue
         if not checks:
             rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "not run", "cpu_hours": np.nan})
         for c in checks:
@@ -228,7 +233,8 @@ def markdown(df: pd.DataFrame, ladder: dict) -> str:
             "| rung | knob | quantity | ours ± stat ± syst | paper | verdict | CPU-h |\n|---|---|---|---|---|---|---|\n")
     for _, r in df.iterrows():
         if not str(r["state"]).startswith("run"):
-            text += f"| {r['rung']} | {r['knob']} | – | {r['state']} | | | {r['cpu_hours']:.3g} |\n"
+            cpu = f"{r['cpu_hours']:.3g}" if math.isfinite(r["cpu_hours"]) else "–"
+            text += f"| {r['rung']} | {r['knob']} | – | {r['state']} | | | {cpu} |\n"
             continue
         syst = f" ± {r['syst']:.2g}" if math.isfinite(r["syst"]) else ""
         stat = f" ± {r['stat']:.2g}" if math.isfinite(r["stat"]) else ""

@@ -92,17 +92,30 @@ class Check:
                                                 self.syst)
 
 
-def systematic(central: float, variants: dict[str, float]) -> tuple[float, str]:
+def systematic(central: float, variants: dict, central_se: float = float("nan")) -> tuple[float, str]:
     """``(systematic error, text)`` of a value measured one way, from the same value measured others.
 
-    The systematic error is the largest shift ``|variant - central|`` over the finite variants
-    (NaN when there is none); the text lists every variant with its value, e.g.
-    ``slab ±0.25 r_b: 0.52; slab ±1 r_b: 0.55``.
+    Each variant is a value, or ``(value, standard error)`` when it is measured on a subset or a
+    superset of the same data (a shorter fit range, half the window): then, with ``central_se``
+    given, the part of its shift that the statistics of the data it adds or drops explain,
+    :math:`|\\sigma_v^2 - \\sigma^2|`, is taken out in quadrature (Barlow 2002, "Systematic errors:
+    facts and fictions"), :math:`\\sqrt{\\max(0, \\Delta^2 - |\\sigma_v^2 - \\sigma^2|)}`. The systematic
+    error is the largest remaining shift over the finite variants (NaN when there is none); the text
+    lists every variant with its value, e.g. ``slab ±0.25 r_b: 0.52; slab ±1 r_b: 0.55``.
     """
-    shifts = [abs(float(v) - float(central)) for v in variants.values()
-              if math.isfinite(float(v)) and math.isfinite(float(central))]
-    text = "; ".join(f"{name}: {float(v):.4g}" for name, v in variants.items())
-    return (max(shifts) if shifts else float("nan")), text
+    shifts, parts = [], []
+    for name, v in variants.items():
+        value, se = (v if isinstance(v, tuple) else (v, float("nan")))
+        value = float(value)
+        parts.append(f"{name}: {value:.4g}")
+        if not (math.isfinite(value) and math.isfinite(float(central))):
+            continue
+        shift = abs(value - float(central))
+        if math.isfinite(float(se)) and math.isfinite(float(central_se)):
+            shift = math.sqrt(max(0.0, shift ** 2 - abs(float(se) ** 2 - float(central_se) ** 2)))
+            parts[-1] += f" (± {float(se):.2g}, beyond its statistics {shift:.2g})"
+        shifts.append(shift)
+    return (max(shifts) if shifts else float("nan")), "; ".join(parts)
 
 
 def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0,

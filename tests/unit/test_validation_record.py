@@ -171,3 +171,16 @@ def test_record_figures_are_copied_as_smaller_palette_pngs(tmp_path):
     (tmp_path / "fake.png").write_bytes(b"\x89PNG fake")
     validation.copy_figure(tmp_path / "fake.png", tmp_path / "copy.png")
     assert (tmp_path / "copy.png").read_bytes() == b"\x89PNG fake"
+
+
+def test_a_subset_variant_counts_only_its_shift_beyond_its_own_statistics():
+    # central 0.88 +- 0.43 on 5 points; the fit on 4 of them 1.32 +- 0.60: sigma_diff^2 = 0.60^2 - 0.43^2
+    syst, text = validation.systematic(0.88, {"R >= 6.75": (1.32, 0.60)}, central_se=0.43)
+    assert syst == pytest.approx(math.sqrt(max(0.0, 0.44**2 - (0.60**2 - 0.43**2))))
+    assert "R >= 6.75: 1.32 (± 0.6" in text
+    # a shift far beyond the statistics stays almost whole; without central_se nothing is taken out
+    assert validation.systematic(1.0, {"half": (2.0, 0.11)}, central_se=0.1)[0] == pytest.approx(
+        math.sqrt(1 - (0.11**2 - 0.1**2)))
+    assert validation.systematic(1.0, {"half": (2.0, 0.11)})[0] == pytest.approx(1.0)
+    # plain values and pairs mix
+    assert validation.systematic(1.0, {"a": 1.2, "b": (1.05, 0.2)}, central_se=0.1)[0] == pytest.approx(0.2)

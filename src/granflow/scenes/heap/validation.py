@@ -197,11 +197,13 @@ def alpha_check(case: HeapCase) -> Check:
     theta = float(case.record["geometry"]["theta_deg"])
     alpha, se, _ = alpha_planar(case)
     n_t = len(_surface_grid(case)[0])
-    alt = {f"x over {lo:g}-{hi:g} of the flowing length": alpha_planar(case, (lo, hi))[0]
+    # every variant reads a subset or superset of the same surface: only its shift beyond its own
+    # statistics counts (granflow.validation.systematic)
+    alt = {f"x over {lo:g}-{hi:g} of the flowing length": alpha_planar(case, (lo, hi))[:2]
            for lo, hi in ALPHA_MIDDLE_VARIANTS}
-    alt["first half of the window"] = alpha_planar(case, frames=slice(0, n_t // 2))[0]
-    alt["second half of the window"] = alpha_planar(case, frames=slice(n_t // 2, None))[0]
-    syst, text = systematic(alpha, alt)
+    alt["first half of the window"] = alpha_planar(case, frames=slice(0, n_t // 2))[:2]
+    alt["second half of the window"] = alpha_planar(case, frames=slice(n_t // 2, None))[:2]
+    syst, text = systematic(alpha, alt, central_se=se)
     lo, hi = ALPHA_MIDDLE
     note = (f"plane z_s = z_0 − x tan α + v_r t fitted to the free surface (φ = 0.35) of every frame of the averaging "
             f"window, over the planar middle: {lo:g}-{hi:g} of the flowing length from the feed zone's edge to the end "
@@ -280,8 +282,10 @@ def tail_checks(case: HeapCase) -> list[Check]:
     if not col.empty and {"zt", "ut"} <= set(col):
         fits = {f"z/δ over {lo:g} to {hi:g}": hp.fit_exponential_tail(col["zt"], col["ut"], lo, hi)
                 for lo, hi in TAIL_RANGE_VARIANTS}
-        syst_a, text_a = systematic(case.get("tail_A"), {k: f.A for k, f in fits.items()})
-        syst_k, text_k = systematic(case.get("tail_k"), {k: f.k for k, f in fits.items()})
+        syst_a, text_a = systematic(case.get("tail_A"), {k: (f.A, f.A_se) for k, f in fits.items()},
+                                    central_se=case.get("tail_A_se"))
+        syst_k, text_k = systematic(case.get("tail_k"), {k: (f.k, f.k_se) for k, f in fits.items()},
+                                    central_se=case.get("tail_k_se"))
         note += "; syst: the fit range"
     return [Check(qa, "2.4", source, case.get("tail_A"), case.get("tail_A_se") * inflation, case=case.name,
                   paper_range=PAPER_TAIL_A, note=_with(note + a_note, case), syst=syst_a, variants=text_a),

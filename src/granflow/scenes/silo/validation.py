@@ -197,9 +197,13 @@ def velocity_exponent_checks(cases: list[SiloCase]) -> list[Check]:
             for name, vals in variants.items():
                 if name != "headline":
                     v, se = zip(*vals)
-                    alt[name] = fit_fn(v, se)[key]
-            alt[f"R ≥ {PAPER_R_RANGE[0]:g} r_b only (the paper's orifices)"] = fit_fn(head_v, head_se, inside)[key]
-            syst, text = systematic(head[key], alt)
+                    f = fit_fn(v, se)
+                    alt[name] = (f[key], f[key + "_se"])
+            f = fit_fn(head_v, head_se, inside)
+            alt[f"R ≥ {PAPER_R_RANGE[0]:g} r_b only (the paper's orifices)"] = (f[key], f[key + "_se"])
+            # each variant reads a subset or superset of the same particles: only its shift beyond its
+            # own statistics counts (granflow.validation.systematic)
+            syst, text = systematic(head[key], alt, central_se=head[key + "_se"])
             W_ratio = ", ".join(f"{c.get('W_plane') / c.get('W_f'):.3f}" for c in ok)
             if kind == "power law":
                 q = "v_z(0) ∝ R^a: exponent a (orifice plane, no kernel)"
@@ -253,9 +257,12 @@ def flow_scale_check(cases: list[SiloCase]) -> Check:
     R = np.array([c.get("R") for c in ok])
     v, se = scaled()
     head = sl.scaling_exponent(R, v, se)
-    alt = {f"slab ±{h:g} r_b": sl.scaling_exponent(R, *scaled(h))["exponent"]
-           for h in (0.25, 1.0) if h != ok[0].get("plane_slab_half")}
-    syst, text = systematic(head["exponent"], alt)
+    alt = {}
+    for h in (0.25, 1.0):
+        if h != ok[0].get("plane_slab_half"):
+            f = sl.scaling_exponent(R, *scaled(h))
+            alt[f"slab ±{h:g} r_b"] = (f["exponent"], f["exponent_se"])
+    syst, text = systematic(head["exponent"], alt, central_se=head["exponent_se"])
     kernel = [c.get("W_f") / (rho * c.get("phi_c") * c.get("v_c") * np.pi * c.get("R") ** 2) for c in ok]
     note = (f"W̃ per orifice (R = {', '.join(f'{c.R_over_rb:g}' for c in ok)} r_b): "
             f"{', '.join(f'{x:.3f}' for x in v)} from the orifice plane (φ_c and v_c over r < R/4 and the shape fit; "
@@ -309,9 +316,9 @@ def collapse_check(cases: list[SiloCase]) -> Check:
             alt[f"kernel w = {wk} r_b"] = sl.scaling_exponent(R, yw * R, sw * R)["exponent"]
         inside = np.array([_in_paper_range(c) for c in ok])
         if inside.sum() >= 2:
-            alt[f"R ≥ {PAPER_R_RANGE[0]:g} r_b only"] = sl.scaling_exponent(R[inside], (y * R)[inside],
-                                                                           (se * R)[inside])["exponent"]
-        syst, text = systematic(fit["exponent"], alt)
+            f = sl.scaling_exponent(R[inside], (y * R)[inside], (se * R)[inside])
+            alt[f"R ≥ {PAPER_R_RANGE[0]:g} r_b only"] = (f["exponent"], f["exponent_se"])
+        syst, text = systematic(fit["exponent"], alt, central_se=fit["exponent_se"])
         # the refined peak anywhere within a third of a node: uniform, sigma = third/sqrt(3) per case,
         # independent; its share of the exponent's error joins the syst in quadrature
         node = np.array([_node_sigma(c) for c in ok])
@@ -354,9 +361,9 @@ def collapse_eq7_check(cases: list[SiloCase]) -> Check:
     alt = {}
     inside = np.array([_in_paper_range(c) for c in ok])
     if inside.sum() >= 2:
-        alt[f"R ≥ {PAPER_R_RANGE[0]:g} r_b only"] = sl.scaling_exponent(R[inside], (y * R)[inside],
-                                                                       (se * R)[inside])["exponent"]
-    syst, text = systematic(fit["exponent"], alt)
+        f = sl.scaling_exponent(R[inside], (y * R)[inside], (se * R)[inside])
+        alt[f"R ≥ {PAPER_R_RANGE[0]:g} r_b only"] = (f["exponent"], f["exponent_se"])
+    syst, text = systematic(fit["exponent"], alt, central_se=fit["exponent_se"])
     node = np.array([EQ7_SPACING / 3.0 / math.sqrt(3.0) / c.R_over_rb for c in ok])
     node_se = _slope_error(R, y, node)
     text += ("; " if text else "") + f"node resolution (a third of a node, uniform): ±{node_se:.3g}"

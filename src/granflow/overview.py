@@ -85,13 +85,19 @@ def overview_rst(summaries: list[dict], rung: str) -> str:
         for c in checks:
             unit = f" {c['unit']}" if c.get("unit") else ""
             rows.append([c["quantity"], f"{c['paper']}{unit} ({c['source']})",
-                         _fmt(c.get("ours"), c.get("error")) + unit, c.get("case", ""), c.get("verdict", "")])
+                         _fmt(c.get("ours"), c.get("error"), _finite_or_none(c.get("syst"))) + unit,
+                         c.get("case", ""), c.get("verdict", "")])
         lines += _table(f"{s['scene']} (rung {s.get('rung', rung)}): {s.get('paper', '')}",
-                        ["quantity", "paper (source)", "ours ± error", "case", "verdict"], rows,
+                        ["quantity", "paper (source)", "ours ± stat (± syst)", "case", "verdict"], rows,
                         [16, 34, 14, 12, 24])
     lines += [rst_text("The scenes' sections follow: their tables, figures and provenance; the "
                        "validation section holds the committed record."), "", "{% endraw %}", ""]
     return "\n".join(lines)
+
+
+def _finite_or_none(x):
+    """A JSON number (a summary's ``syst``, null when not computed) as a float or None."""
+    return float(x) if isinstance(x, (int, float)) and math.isfinite(x) else None
 
 
 def write_overview(summary_paths: list[Path], rung: str, out: Path) -> str:

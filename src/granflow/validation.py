@@ -443,7 +443,7 @@ Each scene's headline numbers against its paper, at the `{rung}` rung: the fines
 which reruns the campaign `config/validation.yaml` (every simulation resumes from its last
 restart, so it can be split over sittings) and rewrites this folder. Do not edit by hand.
 
-- **ours ± error**: one standard error that knows about correlation: the series of the
+- **ours ± stat**: one standard error that knows about correlation: the series of the
   quantity over consecutive sub-windows of the averaging window, its statistical inefficiency
   g (integrated autocorrelation time, `emcee.autocorr.integrated_time`) and
   se = sd·sqrt(g/n) (`postproc.autocorr`); the block error stays in `summary.json` as a

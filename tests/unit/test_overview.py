@@ -15,7 +15,9 @@ SUMMARIES = [
                {"dir": "W~20/phi~0.6", "status": "no_steady_state", "reason": "drift *6.5 %* over\nthe last 100",
                 "particles": 2161, "cpu_hours": 0.5}],
      "checks": [{"quantity": "u_max/u_slip", "paper": "1.37–1.40", "source": "fig. 5(c)", "ours": 1.19706,
-                 "error": 0.00634, "case": "W~20/phi~0.58", "unit": "", "verdict": "differs by -13 %"}]},
+                 "error": 0.00634, "case": "W~20/phi~0.58", "unit": "", "verdict": "differs by -13 %"},
+                {"quantity": "h_c exponent", "paper": "1", "source": "fig. 8", "ours": 1.171, "error": 0.088,
+                 "syst": 0.263, "case": "sweep", "unit": "", "verdict": "within the systematic error"}]},
     {"scene": "beta", "rung": "demo", "paper": "Roe (2013)",
      "cases": [{"dir": "R~4.5", "status": "completed", "reason": "fixed schedule", "particles": 8087,
                 "cpu_hours": 1.125},
@@ -50,6 +52,7 @@ def test_page_lists_every_case_with_status_and_the_cpu_hours():
 def test_checks_sit_beside_the_papers_values():
     html = render(overview_rst(SUMMARIES, "demo"))
     assert "1.1971 ± 0.0063" in html                     # two significant digits of the error
+    assert "1.171 ± 0.088 ± 0.263" in html               # and the systematic error where there is one
     assert "1.37–1.40 (fig. 5(c))" in html
     assert "differs by -13 %" in html
     assert "beta: no headline number could be measured in this campaign." in html

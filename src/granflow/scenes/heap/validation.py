@@ -316,11 +316,25 @@ def deposit_check(case: HeapCase) -> Check:
     if not case.measured or case.tables["deposit"].empty:
         return _not_measured(q, paper, source, case, paper_range=(0.0, math.inf))
     geometry = case.record["geometry"]
-    d = hp.deposit_contrast(case.tables["deposit"], geometry["x_feed"], geometry["W"])
-    note = ("volume concentration of the small species in the material laid down in the averaging window "
-            "below the flowing layer, x_lab from the feed zone's edge to the end wall, halves weighted by the "
-            f"{d['n']} particles counted: upstream {d['upstream']:.3f}, downstream {d['downstream']:.3f}; no "
-            "statistical error (one deposit)")
+    dep = case.tables["deposit"]
+    x0, W = geometry["x_feed"], geometry["W"]
+    by_volume = "volume" in dep
+    weight = "volume" if by_volume else "n"
+    d = hp.deposit_contrast(dep, x0, W, weight)
+    d_n = hp.deposit_contrast(dep, x0, W, "n")
+    # the end-wall pool reported apart: the deposit beyond the planar middle's end
+    x_pool = x0 + ALPHA_MIDDLE[1] * (W - x0)
+    d_nopool = hp.deposit_contrast(dep, x0, x_pool, weight)
+    pool = dep[(dep["x_lab"] > x_pool) & (dep["n"] > 0)]
+    w = pool[weight] if weight in pool else pool["n"]
+    c_pool = float(np.sum(pool["c_s"] * w) / np.sum(w)) if len(pool) and np.sum(w) > 0 else float("nan")
+    note = (f"volume concentration of the small species in the material laid down in the averaging window below "
+            f"the flowing layer, x_lab from the feed zone's edge to the end wall, halves weighted by "
+            f"{'volume (the paper: by volume)' if by_volume else 'the particles counted (no volumes in this analysis)'}: "
+            f"upstream {d['upstream']:.3f}, downstream {d['downstream']:.3f} ({d['n']} particles); weighted by "
+            f"number {d_n['contrast']:+.3f}. The pool at the end wall (x_lab > {x_pool * 1e3:.0f} mm, beyond the "
+            f"surface's planar middle) has c_s = {c_pool:.3f}; without it the contrast is "
+            f"{d_nopool['contrast']:+.3f}. No statistical error (one deposit)")
     return Check(q, paper, source, d["contrast"], case=case.name, paper_range=(0.0, math.inf), note=_with(note, case))
 
 

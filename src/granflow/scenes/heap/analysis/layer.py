@@ -440,7 +440,7 @@ def deposit_concentration(position, radius, type, fit: SurfaceFit, geometry: Hea
     -------
     DataFrame
         ``x_lab`` (column centre), ``c_s`` (NaN in empty columns), ``n``
-        (particles counted).
+        (particles counted), ``volume`` (their volume, m^3).
     """
     position = np.asarray(position, dtype=float).reshape(-1, 3)
     radius = np.asarray(radius, dtype=float).ravel()
@@ -463,6 +463,7 @@ def deposit_concentration(position, radius, type, fit: SurfaceFit, geometry: Hea
         "x_lab": 0.5 * (edges[1:] + edges[:-1]),
         "c_s": np.divide(small, total, out=np.full(n_cols, np.nan), where=total > 0),
         "n": count,
+        "volume": total,
     })
 
 
@@ -489,24 +490,27 @@ def delta_over_local_d(per_x: pd.DataFrame, x_range=DELTA_MEAN_RANGE) -> tuple[f
     return (float(np.mean(delta[sel] / d[sel])), int(sel.sum())) if sel.any() else (float("nan"), 0)
 
 
-def deposit_contrast(deposit: pd.DataFrame, x_lo: float, x_hi: float) -> dict:
+def deposit_contrast(deposit: pd.DataFrame, x_lo: float, x_hi: float, weight: str = "n") -> dict:
     """Small-particle concentration of the upstream half of the deposit minus the downstream half's.
 
     .. math:: \\Delta c_s = \\bar c_s(x_{lo} \\le x_{lab} < x_m) - \\bar c_s(x_m \\le x_{lab} \\le x_{hi}),
         \\qquad x_m = (x_{lo} + x_{hi})/2
 
-    each half's :math:`\\bar c_s` weighted by the particles counted per column
-    (:func:`deposit_concentration`); positive when the small particles deposit
-    upstream (paper, figure 3).
+    each half's :math:`\\bar c_s` weighted per column by ``weight``: ``n``, the particles
+    counted, or ``volume``, their volume (the paper's concentration is by volume, so a half's
+    :math:`\\bar c_s` is then its small particles' volume over its particles' volume;
+    :func:`deposit_concentration`); positive when the small particles deposit upstream (paper,
+    figure 3).
 
     Returns
     -------
     dict
         ``contrast, upstream, downstream, n`` (particles); NaN without particles in a half.
     """
-    x, c, n = (_column(deposit, k) for k in ("x_lab", "c_s", "n"))
-    ok = np.isfinite(x) & np.isfinite(c) & np.isfinite(n) & (n > 0) & (x >= x_lo) & (x <= x_hi)
+    x, c, n, w = (_column(deposit, k) for k in ("x_lab", "c_s", "n", weight))
+    ok = (np.isfinite(x) & np.isfinite(c) & np.isfinite(n) & (n > 0) & np.isfinite(w) & (w > 0)
+          & (x >= x_lo) & (x <= x_hi))
     mid = 0.5 * (x_lo + x_hi)
     halves = [ok & (x < mid), ok & (x >= mid)]
-    up, down = (float(np.sum(c[h] * n[h]) / np.sum(n[h])) if h.any() else float("nan") for h in halves)
+    up, down = (float(np.sum(c[h] * w[h]) / np.sum(w[h])) if h.any() else float("nan") for h in halves)
     return dict(contrast=up - down, upstream=up, downstream=down, n=int(np.sum(n[ok])) if ok.any() else 0)

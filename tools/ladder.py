@@ -213,7 +213,7 @@ def figure(df: pd.DataFrame, ladder: dict, path: Path) -> None:
             ax.axvline(r["cpu_hours"], color="0.5", ls=":", lw=1)
             ax.text(r["cpu_hours"], ax.get_ylim()[1] * 0.95, f" {r['rung']}: {r['cpu_hours']:.3g} CPU-h (planned)",
                     rotation=90, va="top", ha="right", fontsize=7, color="0.4")
-        ax.set(xscale="log", xlabel="CPU-hours (the rung's cases)", ylabel="|ours − paper| / paper",
+        ax.set(xscale="log", xlabel="CPU-hours (the rung's cases)", ylabel="|ours − paper| / paper (absolute where 0)",
                title=q if len(q) < 48 else q[:46] + "…")
         ax.title.set_fontsize(8)
         ax.set_ylim(bottom=0)

@@ -500,6 +500,12 @@ def write_readme(folder: Path) -> str:
                  "Written by `tools/compare_record.py` (the scene's own validation on the rerun cases, "
                  "beside the same checks above); the record above is the last full `make validate`.\n\n")
         text += "".join(p.read_text() for p in changes)
+    ladders = sorted(folder.glob("*/ladder.md"))
+    if ladders:
+        text += ("\n## Ladders: one knob at a time toward the paper\n\n"
+                 "Written by `tools/ladder.py record config/ladders/<scene>.yaml` from each rung's analysed cases "
+                 "(the figure: `<scene>/figures/ladder.png`).\n\n")
+        text += "".join(p.read_text() for p in ladders)
     text += "\n## What differs from the papers\n\n"
     for s in summaries:
         text += f"### {s['scene']} ({s.get('paper', '')})\n\n"

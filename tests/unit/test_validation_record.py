@@ -100,7 +100,9 @@ def test_record_and_readme(tmp_path):
     log = (out / "logs" / "x~1.txt").read_text()
     assert "status: steady: flat" in log and "Loop time of 2.0" in log and "WARNING: something" in log
     assert pd.read_csv(out / "profiles" / "p.csv")["u"].tolist() == [0.1, 0.2]
+    (out / "ladder.md").write_text("### toy: ladder toward the paper\n\n| rung | knob |\n")
     text = validation.write_readme(tmp_path / "validation")
+    assert "## Ladders: one knob at a time toward the paper" in text and "### toy: ladder toward" in text
     assert "| toy | ratio | 1.37-1.40 (Fig. 5c) | 1.210 ± 0.010 | x~1 |" in text
     assert "differs by -11.7 %" in text and "thin box: B = 5 instead of 40" in text
     assert "| toy | x~2 | steady | 1000 | 2.00 % | 2.00 |" in text

@@ -262,6 +262,12 @@ def fig05d_orifice_plane(cases: list[dict], path) -> Figure:
             ax_c.plot(xs, kw["prefactor"] * xs ** kw["exponent"], color="0.5", ls="-.", lw=1,
                       label=f"kernel node (open): $R^a$, a = {kw['exponent']:.2f}")
         ax_c.legend(fontsize=7, loc="lower right")
+        from matplotlib.ticker import NullFormatter, ScalarFormatter
+
+        for axis in (ax_c.xaxis, ax_c.yaxis):     # plain numbers on the log axes
+            axis.set_major_formatter(ScalarFormatter())
+            axis.set_minor_formatter(NullFormatter())
+        ax_c.set_xticks(sorted(set(round(r, 2) for r in Rs)))
     elif not Rs:
         _unavailable(ax_c, "v_c")
     return _finish(fig, cases, path)

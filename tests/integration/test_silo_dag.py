@@ -52,8 +52,10 @@ def test_dag_writes_table_and_every_figure(smoke_silo, check_png):
     table = pd.read_csv(smoke_silo / "table.csv")
     assert sorted(table["R_over_rb"]) == [3.5, 4.0]
     assert set(table["rung"]) == {"smoke"}
+    from granflow.scenes.silo.figures import SILO_FIGURES
+
     figures = sorted((smoke_silo / "figures").glob("*.png"))
-    assert len(figures) == 12, figures
+    assert [p.stem for p in figures] == sorted(SILO_FIGURES), figures     # every figure, fig05d included
     for path in figures:
         check_png(path)
     # two sizes: the Beverloo fit is refused with its reason, not faked

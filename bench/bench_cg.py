@@ -20,7 +20,13 @@ kernel w = 2 r_b (cutoff 8 r_b) on nodes every r_b and every 2 r_b, compiled on 
 and 2 threads and numpy (Gaussian.assign + one bincount per primitive, the
 reference); contact-frames/s for the contact stress (sigmac, pc) with w = r_b / 2
 (cutoff 2 r_b) on nodes every r_b / 2; and the largest relative difference
-between the two paths. Figures are recorded, not asserted.
+between the two paths; and, at the paper's w = r_b/2 for the pressures on nodes every r_b/4, the
+kinetic pressure time-averaged (rho, u, pk) and by its eq. 7 (postproc.fluctuation: two deposits
+and an interpolation per frame). Figures are recorded, not asserted.
+
+Session 28 (bench/results/bench_cg_session28.txt, load average 1.1-1.3 with the ladder runs paused):
+at r_b/4 nodes with w = r_b/2 the time-averaged kinetic fields run at 0.81 / 1.33 M particle-frames/s
+on 1 / 2 threads (the issue's 1.5 M: 89 %), eq. 7 at 0.40 / 0.64 M (half: two deposits per frame).
 
 Each configuration's kernel is made once and shared by its passes (a new
 accumulator per pass), as in an analysis over many frames: the compiled path's
@@ -177,6 +183,18 @@ def contact_accumulator(kernel: Gaussian, method: str) -> FieldAccumulator:
     return FieldAccumulator(kernel, RZCoordinates(), fields=CONTACT_FIELDS, method=method)
 
 
+def kinetic_accumulator(kernel: Gaussian, method: str) -> FieldAccumulator:
+    """The kinetic pressure at the paper's w = r_b/2 (its figs 8-12), time-averaged form."""
+    return FieldAccumulator(kernel, RZCoordinates(), fields=("rho", "u", "pk"), method=method)
+
+
+def eq7_accumulator(kernel: Gaussian, method: str):
+    """The paper's eq. 7 (fluctuations about each frame's local mean): two deposits per frame."""
+    from postproc.fluctuation import FluctuationAccumulator
+
+    return FluctuationAccumulator(kernel, RZCoordinates(), fields=("rho", "pk"), method=method)
+
+
 def one_pass(make, frames, contacts):
     """Wall and CPU time (all threads) of accumulating all frames into a new accumulator, and its table."""
     acc = make()
@@ -248,6 +266,8 @@ def main(argv=None) -> None:
         ("bulk, w = 2 r_b", bulk_kernel, bulk_accumulator, R_B, None, n),
         ("bulk, w = 2 r_b", bulk_kernel, bulk_accumulator, 2 * R_B, None, n),
         ("contacts, w = r_b/2", contact_kernel, contact_accumulator, R_B / 2, contacts, m),
+        ("kinetic, w = r_b/2", contact_kernel, kinetic_accumulator, R_B / 4, None, n),
+        ("kinetic eq. 7, w = r_b/2", contact_kernel, eq7_accumulator, R_B / 4, None, n),
     ):
         kernel = make_kernel(spacing)
         t0 = time.perf_counter()

@@ -263,7 +263,7 @@ def flow_scale_check(cases: list[SiloCase]) -> Check:
             f = sl.scaling_exponent(R, *scaled(h))
             alt[f"slab ±{h:g} r_b"] = (f["exponent"], f["exponent_se"])
     syst, text = systematic(head["exponent"], alt, central_se=head["exponent_se"])
-    kernel = [c.get("W_f") / (rho * c.get("phi_c") * c.get("v_c") * np.pi * c.get("R") ** 2) for c in ok]
+    kernel = [float(sl.scaled_flow_rate(c.get("W_f"), rho, c.get("phi_c"), c.get("v_c"), c.get("R"))) for c in ok]
     note = (f"W̃ per orifice (R = {', '.join(f'{c.R_over_rb:g}' for c in ok)} r_b): "
             f"{', '.join(f'{x:.3f}' for x in v)} from the orifice plane (φ_c and v_c over r < R/4 and the shape fit; "
             "2/3 for a flat φ and v ∝ √(1−(r/R)²)); from the kernel node (w = 2 r_b): "

@@ -149,7 +149,7 @@ def test_channel_profiles_are_small_and_scaled(tmp_path, channel_errors):
     assert {"I", "mu", "mu_B3", "phi", "phi_B4", "zone", "case"} <= set(rheo.columns)
     for table in result.profiles.values():
         assert len(table.to_csv(index=False)) < 50_000
-    assert result.figures == ["fig04_velocity", "fig05c_ratio", "fig11_rheology"]
+    assert result.figures == ["fig04_velocity", "fig05c_ratio", "fig11_rheology", "fig_steadiness_plug"]
 
 
 def test_channel_case_without_a_steady_state_gives_nan_and_the_reason(tmp_path, monkeypatch):
@@ -158,7 +158,7 @@ def test_channel_case_without_a_steady_state_gives_nan_and_the_reason(tmp_path, 
 
     monkeypatch.setattr(headline, "measure_with_errors", no_dumps)
     result = chv.validation(tmp_path, {"W~20/phi~0.6": channel_case(tmp_path, "d", status="no_steady_state")})
-    assert len(result.checks) == 7
+    assert len(result.checks) == 9   # the six headlines, drift, plug structure, wall force
     for check in result.checks:
         assert math.isnan(check.ours) and math.isnan(check.error)
         assert "no_steady_state" in check.note

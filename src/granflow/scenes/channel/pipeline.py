@@ -95,6 +95,31 @@ def channel_profile(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[flo
     return to_paper_units(profile, record["density"]), facts
 
 
+def channel_blocks(case_dir: str | Path, record: dict, window: float, n_blocks: int = 8) -> pd.DataFrame:
+    """u_max/u_slip and the plug's φ per block of the averaging window (:func:`.analysis.plug.block_ratios`)."""
+    from .analysis.plug import block_ratios
+
+    edges = np.linspace(0.0, window, n_blocks + 1)
+    edges[-1] += 1e-9 * max(window, 1.0)  # the last frame sits on the window's end
+    profiles = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        try:
+            profiles.append((float(lo), float(min(hi, window)), channel_profile(case_dir, t_window=(lo, hi),
+                                                                                record=record)[0]))
+        except ValueError:  # a block without frames
+            continue
+    return block_ratios(profiles, float(record["parameters"]["W"]))
+
+
+def channel_plug_structure(case_dir: str | Path, record: dict, plug_edge: float):
+    """:func:`.analysis.plug.plug_structure` over every frame of the averaging window."""
+    from .analysis.plug import plug_structure
+
+    case_dir, record, status = case_inputs(case_dir, record)
+    frames = particle_frames([case_dir / "run" / d for d in status["dumps"]], record["dt"])
+    return plug_structure(frames, float(record["parameters"]["W"]), plug_edge, dt=float(record["dt"]))
+
+
 def channel_observables(case_dir: str | Path, record: dict, t_window=None) -> dict:
     from .analysis import analyse_channel
 

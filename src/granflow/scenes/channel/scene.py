@@ -8,6 +8,7 @@ from pathlib import Path
 import pandas as pd
 
 import granflow.scenes.channel.figures as figures
+import granflow.scenes.channel.figures_plug as figures_plug
 from granflow.config import require
 from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, Stage, SweepAxis
 
@@ -44,6 +45,7 @@ class ChannelScene(Scene):
         "fig06_stress": FigureSpec(_or_placeholder(figures.fig_stress_profiles), "6"),
         "fig08_phi_shear_T": FigureSpec(_or_placeholder(figures.fig_phi_shear_temperature), "8"),
         "fig11_rheology": FigureSpec(_or_placeholder(figures.fig_rheology), "11"),
+        "fig_steadiness_plug": FigureSpec(_or_placeholder(figures_plug.fig_steadiness_plug), "—"),
     }
     table_sort = ("W", "phi_mean")
     headline = (("u_ratio", "u_max/u_slip"), ("delta_over_W", "δ0.95/W"),
@@ -121,10 +123,13 @@ class ChannelScene(Scene):
         W, phi = record["parameters"]["W"], record["parameters"]["phi_mean"]
         thermo = pd.read_csv(case_dir / "run" / "thermo.csv")
         total_mass = sum(s["count"] * s["mass"] for s in record["species"])
+        tables = {}
         if status["dumps"]:
             profile, facts = channel_profile(case_dir)
             scalars = analyse_channel(profile, W, phi)
             window = thermo[thermo["stage"] == "average"]
+            tables, more = self._steadiness_and_plug(case_dir, record, scalars)
+            scalars.update(more)
         else:
             # not averaged (jammed, no steady state, unstable): an empty profile, the reason in the table
             profile = pd.DataFrame(columns=["x", "x_lo", "x_hi"])
@@ -145,7 +150,27 @@ class ChannelScene(Scene):
             "provenance": (f"rung {record['rung']} · W={W:g} d_p · B={k['B']:g} · k_n={k['k_n']:.0e} · "
                            f"N={facts['n_particles']} · {status['status']}"),
         })
-        return {"profile": profile}, scalars
+        return {"profile": profile, **tables}, scalars
+
+    @staticmethod
+    def _steadiness_and_plug(case_dir: Path, record: dict, scalars: dict) -> tuple[dict, dict]:
+        """Per-block u_max/u_slip with its drift, and the plug's structure (:mod:`.analysis.plug`)."""
+        from .analysis.plug import drift
+        from .pipeline import channel_blocks, channel_plug_structure
+
+        window = float(record["rung_knobs"]["t_average"])
+        blocks = channel_blocks(case_dir, record, window)
+        change, change_se = drift(blocks)
+        plug = channel_plug_structure(case_dir, record, float(scalars.get("x_dense_plug", float("nan"))))
+        s = plug.summary
+        out = {"ratio_drift": change, "ratio_drift_se": change_se,
+               "ratio_block_sd": float(blocks["ratio"].std(ddof=1)) if len(blocks) > 1 else float("nan"),
+               "n_blocks": int(len(blocks))}
+        names = {"q6_plug": "plug_q6", "crystal_plug": "plug_crystal_fraction", "q6_shear": "shear_q6",
+                 "crystal_shear": "shear_crystal_fraction", "layering_plug": "plug_layering",
+                 "layering_random": "plug_layering_random", "nonaffine_rms_plug": "plug_nonaffine_rms"}
+        out.update({column: s.get(key, float("nan")) for key, column in names.items()})
+        return {"blocks": blocks, "structure": plug.frames}, out
 
     def figure_cases(self, cases):
         out = []
@@ -154,7 +179,9 @@ class ChannelScene(Scene):
             if profile.empty:  # not averaged: shown in the table with its status, not in the figures
                 continue
             out.append({"label": f"W={s['W']:g}, φ̄={s['phi_mean']:g}", "W": s["W"], "phi_mean": s["phi_mean"],
-                        "profile": profile, "scalars": s, "provenance": s["provenance"]})
+                        "profile": profile, "scalars": s, "provenance": s["provenance"],
+                        "blocks": tables.get("blocks", pd.DataFrame()),
+                        "structure": tables.get("structure", pd.DataFrame())})
         return out
 
     # -- the error-versus-cost study -------------------------------------------------------

@@ -28,10 +28,12 @@ import numpy as np
 import pandas as pd
 
 from granflow.registry import finite
-from granflow.validation import Check, ValidationResult, error_note, read_case, sci, time_average_errors
+from granflow.validation import (Check, ValidationResult, error_note, read_case, sci, systematic,
+                                 time_average_errors)
 from postproc.autocorr import mean_error
 
 from .analysis import JOP2015, ChannelAnalysis, analyse_profile
+from .measurement import central_errors, headline_variants
 
 NAN = float("nan")
 #: the paper's u_max/u_slip, section 3.1 and figure 5(c) ("1.37-1.40 for all W and phi-bar")
@@ -46,7 +48,7 @@ PAPER_K_N, PAPER_DT, PAPER_T_AVERAGE, PAPER_T_STEADY = 1.0e6, 1.2e-4, 600.0, 2.0
 #: largest contact overlap, fraction of the smallest diameter, above which the record says so
 OVERLAP_LIMIT = 0.01
 #: the figures of the rung kept in the record (names of ChannelScene.figures)
-FIGURES = ["fig04_velocity", "fig05c_ratio", "fig11_rheology"]
+FIGURES = ["fig04_velocity", "fig05c_ratio", "fig11_rheology", "fig_steadiness_plug"]
 #: analysis scalar -> headline key of :meth:`ChannelScene.observables` (the one with a time-average error)
 HEADLINE_OF = {"ratio": "u_ratio", "fit_exponent": "eq31_exponent", "delta_095_over_W": "delta_over_W"}
 
@@ -183,11 +185,23 @@ def wall_force_ratio(case: ChannelCase) -> tuple[float, float, str]:
 
 
 # ------------------------------------------------------------------------- the checks
-def case_checks(case: ChannelCase, errors: dict) -> list[Check]:
-    """The per-case checks (NaN, with the reason in the note, for a case without a steady average)."""
+def case_checks(case: ChannelCase, errors: dict, variants: dict | None = None) -> list[Check]:
+    """The per-case checks (NaN, with the reason in the note, for a case without a steady average).
+
+    ``variants`` holds, per analysis scalar, the same headline measured other ways
+    (:func:`.measurement.headline_variants`); each check then carries its systematic error.
+    """
     name = case.name
     why = case.why_not or errors.get("why", "")
     steady = not case.why_not
+    variants = variants or {}
+    footing = central_errors(case.analysis) if case.analysis is not None and variants else {}
+
+    def syst(key: str, value: float) -> dict:
+        if key not in variants:
+            return {}
+        error, text = systematic(value, variants[key], central_se=footing.get(key, NAN))
+        return {"syst": error, "variants": text}
 
     def headline(key: str) -> tuple[float, float, str]:
         entry = errors.get(HEADLINE_OF[key])
@@ -201,14 +215,14 @@ def case_checks(case: ChannelCase, errors: dict) -> list[Check]:
               f"{_value(case, 'u_max'):.4g} √(g d_p) (the centre of the folded profile); " if steady else "")
     checks.append(Check("u_max/u_slip", "1.37–1.40 for all W and φ̄",
                         "§3.1, fig. 5(c) (conclusion ii: 1.38–1.4)",
-                        ratio, se, name, U_RATIO, note=detail + enote))
+                        ratio, se, name, U_RATIO, note=detail + enote, **syst("ratio", ratio)))
 
     a, se, enote = headline("fit_exponent")
     detail = (f"free least-squares fit of (u - u_slip)/(u_max - u_slip) = 1 - exp(-a x/δ0.95) over the folded bins "
               f"beyond the wall bin: R² = {_value(case, 'fit_r2'):.4f}; with a = 3 fixed R² = "
               f"{_value(case, 'fit_r2_a3'):.4f}; " if steady else "")
     checks.append(Check("eq. 3.1 exponent a", "3", "eq. (3.1), fig. 4(b)", a, se, name, (EXPONENT, EXPONENT),
-                        note=detail + enote))
+                        note=detail + enote, **syst("fit_exponent", a)))
 
     d, se, enote = headline("delta_095_over_W")
     W = float(case.record["parameters"]["W"])
@@ -217,7 +231,8 @@ def case_checks(case: ChannelCase, errors: dict) -> list[Check]:
               f"δ0.95/W is independent of W for W ≥ 100 d_p but not at W = 60 d_p, and δ0.95 falls as φ̄ rises; "
               if steady else "")
     checks.append(Check("δ0.95/W", "fig. 5(d) only; W-independent for W ≥ 100 d_p, not at W = 60",
-                        "§3.1, fig. 5(d); conclusions iii-iv", d, se, name, None, note=detail + enote))
+                        "§3.1, fig. 5(d); conclusions iii-iv", d, se, name, None, note=detail + enote,
+                        **syst("delta_095_over_W", d)))
 
     profile_why = "" if case.analysis is not None else (case.why_not or "not measured: no analysis/profile.csv")
     if case.analysis is not None:
@@ -234,7 +249,8 @@ def case_checks(case: ChannelCase, errors: dict) -> list[Check]:
         detail = profile_why
         mu = loose = dense = _summary(np.array([]), np.array([]))
     checks.append(Check("φ in the plug", "≈ 0.63", "§3.2, fig. 8(a); conclusion (v)", phi_plug, phi_se, name,
-                        (PLUG_PHI, PLUG_PHI), note=detail))
+                        (PLUG_PHI, PLUG_PHI), note=detail, **syst("plug_phi", phi_plug)))
+    checks += steadiness_and_plug_checks(case)
 
     base = (f"μ = |σ_xy|/σ_xx and I = d_p|du/dx|/√(σ_xx/ρ_p) per folded bin; B3 with μ_s = {JOP2015.mu_s}, "
             f"μ_∞ = {JOP2015.mu_inf}, I_0 = {JOP2015.I_0}")
@@ -270,6 +286,44 @@ def case_checks(case: ChannelCase, errors: dict) -> list[Check]:
         ratio, se, note = NAN, NAN, case.why_not
     checks.append(Check("wall shear force / weight", "1 (exact in steady flow)", "§3.1 (fig. 7 discussion), eq. (B2)",
                         ratio, se, name, (1.0, 1.0), note=note))
+    return checks
+
+
+#: the plug's rms non-affine displacement over the window below which it is one frozen configuration,
+#: and above which it has rearranged (diameters)
+FROZEN_BELOW, REARRANGED_ABOVE = 0.3, 1.0
+
+
+def steadiness_and_plug_checks(case: ChannelCase) -> list[Check]:
+    """u_max/u_slip's drift over the averaging window (0 in a steady flow) and the plug's structure."""
+    name, sc = case.name, case.scalars
+    if case.why_not or "ratio_drift" not in sc:
+        why = case.why_not or "not measured: the analysis predates the per-block ratio (rerun analyse)"
+        return [Check("drift of u_max/u_slip over the averaging window", "0 (steady)", "§2, §3.1", NAN, NAN, name,
+                      (0.0, 0.0), note=why),
+                Check("plug: rms non-affine displacement over the window", "no number (a sheared plug at φ ≈ 0.63)",
+                      "§3.2", NAN, NAN, name, None, note=why)]
+    window = float(case.record["rung_knobs"]["t_average"])
+    drift, drift_se = _value(case, "ratio_drift"), _value(case, "ratio_drift_se")
+    note = (f"change of a straight line through u_max/u_slip of {int(sc.get('n_blocks', 0))} consecutive blocks of "
+            f"the {window:g} √(d_p/g) window (blocks scatter by {_value(case, 'ratio_block_sd'):.3g}); error: "
+            f"the slope's, from the blocks' scatter about the line. A steady flow has none")
+    checks = [Check("drift of u_max/u_slip over the averaging window", "0 (steady)", "§2, §3.1", drift, drift_se,
+                    name, (0.0, 0.0), note=note)]
+    rms = _value(case, "plug_nonaffine_rms")
+    state = ("one frozen configuration (it moves as a rigid body)" if rms < FROZEN_BELOW else
+             "rearranged" if rms >= REARRANGED_ABOVE else "partly rearranged")
+    note = (f"particles that start in the plug (distance from the wall ≥ {_value(case, 'x_dense_plug'):.3g} d_p): "
+            f"each one's displacement less the plug's rigid motion over {window:g} √(d_p/g): {rms:.3g} d_p, i.e. "
+            f"{state} (< {FROZEN_BELOW:g} d_p frozen, ≥ {REARRANGED_ABOVE:g} rearranged). Bond order: q6 = "
+            f"{_value(case, 'plug_q6'):.3f} in the plug, {_value(case, 'shear_q6'):.3f} in the shear zone (fcc 0.5745, "
+            f"dense random packing 0.35-0.45); crystal-like particles (ten Wolde et al. 1996) "
+            f"{_value(case, 'plug_crystal_fraction'):.1%} of the plug, {_value(case, 'shear_crystal_fraction'):.1%} "
+            f"of the shear zone; layering along the periodic depth |<exp(2πi n z/B)>| = "
+            f"{_value(case, 'plug_layering'):.3f} (no order: {_value(case, 'plug_layering_random'):.3f}). A frozen "
+            f"plug samples one configuration, so its bins scatter by more than their time-average errors")
+    checks.append(Check("plug: rms non-affine displacement over the window", "no number (a sheared plug at φ ≈ 0.63)",
+                        "§3.2", rms, NAN, name, None, unit="d_p", note=note))
     return checks
 
 
@@ -360,15 +414,22 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
         Case directory name (``W~60/phi~0.6``) to its analysed directory.
     """
     loaded = [load_case(name, path) for name, path in cases.items()]
-    checks, velocity, rheology = [], [], []
+    checks, velocity, rheology, blocks = [], [], [], []
     for case in loaded:
-        checks += case_checks(case, time_average_errors("channel", case.path, case.record, case.why_not))
+        variants = {}
+        if case.analysis is not None and all((case.path / "run" / d).exists() for d in case.status["dumps"]):
+            variants = headline_variants(case.path, case.record, case.analysis)
+        checks += case_checks(case, time_average_errors("channel", case.path, case.record, case.why_not), variants)
         if case.analysis is not None:
             velocity.append(velocity_profile(case))
             rheology.append(rheology_points(case.analysis).assign(case=case.name))
+        if (case.path / "analysis" / "blocks.csv").exists():
+            blocks.append(pd.read_csv(case.path / "analysis" / "blocks.csv").assign(case=case.name))
     profiles = {}
     if velocity:
         profiles["velocity_scaled"] = pd.concat(velocity, ignore_index=True)
         profiles["rheology_points"] = pd.concat(rheology, ignore_index=True)
+    if blocks:
+        profiles["ratio_blocks"] = pd.concat(blocks, ignore_index=True)
     return ValidationResult(checks=checks, profiles=profiles, figures=list(FIGURES),
                             differences=differences(loaded))

@@ -1,0 +1,88 @@
+"""The channel's measurement choices: each headline recomputed from the same dumps another way.
+
+The paper's definitions are kept where it states them (the 1.5 d_p wall bin whose speed is
+:math:`u_{slip}`, d_p bins elsewhere, §2); what it leaves open, or what a finite run adds, is varied:
+
+* the interior bin width: 0.5 and 2 d_p against 1 d_p (the wall bin stays the paper's);
+* how :math:`u_{max}` is read: the largest bin of the folded profile (ours, the paper's "maximum
+  velocity at the centre"), the centre bin, or the mean over the plug's bins; the largest of noisy
+  bins is biased upwards by their noise;
+* the averaging window's first and second half, each with its own error (a subset of the same
+  data: :func:`granflow.validation.systematic` takes out the part its statistics explain).
+
+:func:`headline_variants` returns, per headline, ``{variant: value or (value, se)}`` for
+:func:`granflow.validation.systematic`.
+"""
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+
+from .analysis import analyse_profile
+from .pipeline import channel_profile
+
+#: interior bin widths tried besides the rung's, d_p
+BIN_WIDTHS = (0.5, 2.0)
+#: the headlines that get variants: analysis scalar -> how to read it from a ChannelAnalysis
+HEADLINES = ("ratio", "fit_exponent", "delta_095_over_W", "plug_phi")
+
+
+def _read(a, key: str) -> tuple[float, float]:
+    """``(value, se)`` of one headline from a :class:`~.analysis.ChannelAnalysis`."""
+    if key == "ratio":
+        return a.scales.ratio, a.scales.ratio_se
+    if key == "fit_exponent":
+        return a.fit.a, a.fit.a_se
+    if key == "delta_095_over_W":
+        return a.scales.delta_095 / a.W, float("nan")
+    plug = a.zones.labels == "plug"
+    phi = a.folded["phi"].to_numpy(float)
+    if not plug.any():
+        return float("nan"), float("nan")
+    se = a.folded["phi_se"].to_numpy(float)[plug] if "phi_se" in a.folded else np.full(plug.sum(), np.nan)
+    return float(np.nanmean(phi[plug])), float(np.nanmean(se))
+
+
+def u_max_readings(a) -> dict[str, float]:
+    """:math:`u_{max}/u_{slip}` with :math:`u_{max}` read as the centre bin and as the plug's mean speed."""
+    u = a.folded["u"].to_numpy(float)
+    plug = a.zones.labels == "plug"
+    slip = a.scales.u_slip
+    out = {"u_max = centre bin": float(u[-1] / slip) if slip > 0 else float("nan")}
+    out["u_max = mean over the plug"] = float(np.nanmean(u[plug]) / slip) if plug.any() and slip > 0 \
+        else float("nan")
+    return out
+
+
+def headline_variants(case_dir: Path, record: dict, central) -> dict[str, dict]:
+    """Per key of :data:`HEADLINES`, ``{variant name: value or (value, se)}`` (module docstring).
+
+    ``central`` is the case's :class:`~.analysis.ChannelAnalysis` of the whole window (its errors are the
+    profile's own, the footing of the halves' errors).
+    """
+    W = float(record["parameters"]["W"])
+    out = {key: {} for key in HEADLINES}
+    for width in BIN_WIDTHS:
+        rec = copy.deepcopy(record)
+        rec["rung_knobs"]["bin_width"] = float(width)
+        a = analyse_profile(channel_profile(case_dir, record=rec)[0], W)
+        for key in HEADLINES:
+            out[key][f"bins {width:g} d_p"] = _read(a, key)[0]
+    out["ratio"].update(u_max_readings(central))
+    window = float(record["rung_knobs"]["t_average"])
+    halves = {"first half": (0.0, 0.5 * window), "second half": (0.5 * window, window * (1.0 + 1e-9))}
+    for name, span in halves.items():
+        try:
+            a = analyse_profile(channel_profile(case_dir, record=record, t_window=span)[0], W)
+        except ValueError:  # no frame in that half
+            continue
+        for key in HEADLINES:
+            out[key][f"window {name}"] = _read(a, key)
+    return out
+
+
+def central_errors(central) -> dict[str, float]:
+    """The whole window's profile errors per headline: the footing :func:`systematic` compares the halves on."""
+    return {key: _read(central, key)[1] for key in HEADLINES}

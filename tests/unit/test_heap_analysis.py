@@ -448,3 +448,42 @@ def test_deposit_concentration_counts_only_the_window_below_the_layer():
     # volume concentration: 4 small (r/2) + 2 large -> 4/8 / (4/8 + 2) = 0.2; 2 + 4 -> 2/8 / (2/8 + 4)
     expected = np.where(xc < GEOMETRY.W / 2, 0.5 / 2.5, 0.25 / 4.25)
     assert_allclose(dep["c_s"], expected, rtol=1e-12)
+
+
+def test_the_origin_is_each_columns_own_free_surface():
+    """Columns whose surface lies h(x) above or below the fitted plane (an S-shaped heap): measured from the
+    local surface, u_s and the collapsed profile are those of the flat heap; from the plane, u_s is off by
+    exp(h/z0) and the offset is reported."""
+    z0, dx, dz, d = 2e-3, 0.02, 1e-4, 1.5e-3
+    fit = surface_fit()
+    frame = hp.MovingFrame(fit, GEOMETRY)
+    L, v_rn = frame.L, frame.v_r_normal
+    flat = synthetic_profile(frame, z0, dx, dz, d)
+    xs = np.sort(flat["x"].unique())
+    h = dict(zip(xs, np.round(3e-4 * np.sin(2 * np.pi * xs / L) / dz) * dz))  # on bin edges, within the profile's top
+    bent = flat.copy()
+    shift = bent["x"].map(h).to_numpy()
+    moved = bent["z"] - shift
+    bent["u"] = np.where(np.isfinite(flat["u"]), v_rn * (L - bent["x"]) / z0 * np.exp(moved / z0), np.nan)
+    bent.loc[bent["x"] > L, "u"] = flat.loc[flat["x"] > L, "u"]
+    bent["phi"] = np.where(moved < 0, 0.6, 0.0)
+    per_x, s = hp.analyse_heap(bent, fit, GEOMETRY, density=2500.0, feed_rate=0.03, phi_bed=0.62, d_ref=d)
+    ok = per_x["usable"].to_numpy()
+    good = per_x[ok]
+    # the crossing of phi_c = 0.35 between bin centres lies 0.083 dz below the step
+    assert_allclose(good["z_surface_local"], good["x"].map(h) - dz * (1 - 0.25 / 0.6 - 0.5), atol=1e-9)
+    assert_allclose(good["u_s"], v_rn * (L - good["x"]) / z0, rtol=5e-3)
+    assert_allclose([s["tail_A"], s["tail_k"]], [1.0, np.log(10)], rtol=5e-3)
+    assert s["origin"] == "local"
+    assert_allclose(s["surface_offset_max_over_d"], 3e-4 / d, rtol=0.1)
+    # from the fitted plane: u_s is read h above or below the column's surface
+    per_plane, s_plane = hp.analyse_heap(bent, fit, GEOMETRY, density=2500.0, feed_rate=0.03, phi_bed=0.62,
+                                         d_ref=d, origin="plane")
+    ratio = per_plane["u_s"].to_numpy()[ok] / (v_rn * (L - good["x"].to_numpy()) / z0)
+    hx = good["x"].map(h).to_numpy()
+    far = np.abs(hx) > 1.5e-4
+    assert far.sum() >= 4
+    assert_allclose(np.log(ratio[far]), -hx[far] / z0 + np.log(ratio[~far]).mean(), atol=0.01)
+    assert s_plane["origin"] == "plane" and s["tail_A_other_origin"] == pytest.approx(s_plane["tail_A"])
+    with pytest.raises(ValueError, match="origin = 'middle'"):
+        hp.analyse_heap(bent, fit, GEOMETRY, density=2500.0, feed_rate=0.03, phi_bed=0.62, d_ref=d, origin="middle")

@@ -494,3 +494,20 @@ def test_heap_alpha_is_read_on_the_planar_middle_of_an_s_shaped_surface():
     # the variants inside the planar part agree: no systematic error from the fit range
     for middle in hv.ALPHA_MIDDLE_VARIANTS:
         assert hv.alpha_planar(case, middle)[0] == pytest.approx(alpha, abs=1e-9)
+
+
+def test_heap_delta_and_tail_carry_the_other_origin_as_a_variant(tmp_path):
+    scene_dir, cases = heap_scene(tmp_path, [("bi1-2", 0.033, (D_SMALL, D_LARGE))])
+    (path,) = cases.values()
+    scalars = json.loads((path / "analysis" / "scalars.json").read_text())
+    scalars.update({"origin": "local", "delta_over_d_other_origin": 1.1 * scalars["delta_over_d"],
+                    "tail_A_other_origin": 2.0, "tail_k_other_origin": 3.0,
+                    "surface_offset_max_over_d": 1.7, "surface_offset_rms": 1.2e-3})
+    write_json(path / "analysis" / "scalars.json", scalars)
+    result = HEAP.validation(scene_dir, cases)
+    (delta,) = by_quantity(result, "δ/d̄ (flowing")
+    assert "origin: plane" in delta.variants and "up to 1.7 d̄" in delta.note
+    assert delta.syst >= 0.1 * delta.ours * 0.99       # the plane moves δ/d̄ by 10 %
+    a, k = by_quantity(result, "tail")
+    assert "origin: plane: 2" in a.variants and a.syst == pytest.approx(0.4, abs=1e-9)
+    assert "origin: plane: 3" in k.variants and k.syst >= 0.3 - 1e-9

@@ -113,6 +113,8 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
         beds.extend(bed[np.isfinite(bed)])
     phi_bed = float(np.mean(beds)) if beds else float("nan")
     scalars.update(hp.mass_balance(fit, geometry, density=record["density"], feed_rate=rate, phi_bed=phi_bed))
+    if scalars.get("origin") == "local":  # z of every column from its own free surface, as per_x measured it
+        profile = hp.shift_to_surface(profile, per_x.set_index("x")["z_surface_local"])
     collapsed = hp.collapse(profile, per_x, moving.v_r_normal)
     if len(species) == 2 and np.isfinite(scalars.get("delta_mean", np.nan)):
         deposit = hp.deposit_concentration(last.position, last.radius, last.type, fit, geometry,

@@ -237,6 +237,24 @@ def rise_check(case: HeapCase) -> Check:
     return Check(q, paper, source, ratio, se, case=case.name, paper_range=(1.0, 1.0), note=_with(note, case))
 
 
+#: where z = 0 is, in words (granflow.scenes.heap.analysis.analyse_heap's ``origin``)
+_ORIGIN_WORDS = {"local": "each column's own free surface (φ = 0.35 of its time-averaged profile)",
+                 "plane": "the plane fitted to the whole surface (the paper's origin, §2)"}
+
+
+def _other_origin(case: HeapCase) -> str:
+    """The origin the analysis did not use for its headlines (the measurement variant)."""
+    return "plane" if case.scalars.get("origin", "plane") == "local" else "local"
+
+
+def _offset_note(case: HeapCase) -> str:
+    off = case.get("surface_offset_max_over_d")
+    if not math.isfinite(off):
+        return ""
+    return (f"; the local surface lies up to {off:.2g} d̄ (rms {case.get('surface_offset_rms') * 1e3:.2g} mm) from "
+            f"the fitted plane over 0.2 ≤ x/L ≤ 0.9 (the paper's plane: within 1 d, §3.1)")
+
+
 def delta_check(case: HeapCase) -> Check:
     q = "δ/d̄ (flowing-layer thickness, local mean diameter)"
     paper, source = "6d to 7d (1.5 mm, 33 g/s)", "§3.2.2, Fig. 6d"
@@ -257,8 +275,14 @@ def delta_check(case: HeapCase) -> Check:
     for name, key in (("exponential fit × 2.3", "delta_exp"), ("linear extrapolation", "delta_lin")):
         if key in case.tables["per_x"]:
             alt[f"δ by {name}"] = hp.delta_over_local_d(case.tables["per_x"].assign(delta=case.tables["per_x"][key]))[0]
+    other = _other_origin(case)
+    if math.isfinite(case.get("delta_over_d_other_origin")) and math.isfinite(global_ratio) and global_ratio > 0:
+        # the other origin's δ over the mixture's d̄, put on the local-d̄ footing of ours
+        alt[f"origin: {other}"] = value * case.get("delta_over_d_other_origin") / global_ratio
     syst, text = systematic(value, alt)
     note += "; syst: the paper's other two δ methods (§3.2.2), each over the same bins"
+    if f"origin: {other}" in alt:
+        note += f", and z measured from {_ORIGIN_WORDS[other]}" + _offset_note(case)
     return Check(q, paper, source, value, value * rel, case=case.name, paper_range=PAPER_DELTA_OVER_D,
                  note=_with(note, case), syst=syst, variants=text)
 
@@ -282,11 +306,16 @@ def tail_checks(case: HeapCase) -> list[Check]:
     if not col.empty and {"zt", "ut"} <= set(col):
         fits = {f"z/δ over {lo:g} to {hi:g}": hp.fit_exponential_tail(col["zt"], col["ut"], lo, hi)
                 for lo, hi in TAIL_RANGE_VARIANTS}
-        syst_a, text_a = systematic(case.get("tail_A"), {k: (f.A, f.A_se) for k, f in fits.items()},
-                                    central_se=case.get("tail_A_se"))
-        syst_k, text_k = systematic(case.get("tail_k"), {k: (f.k, f.k_se) for k, f in fits.items()},
-                                    central_se=case.get("tail_k_se"))
-        note += "; syst: the fit range"
+        alt_a = {k: (f.A, f.A_se) for k, f in fits.items()}
+        alt_k = {k: (f.k, f.k_se) for k, f in fits.items()}
+        other = _other_origin(case)
+        if math.isfinite(case.get("tail_k_other_origin")):
+            alt_a[f"origin: {other}"] = case.get("tail_A_other_origin")
+            alt_k[f"origin: {other}"] = case.get("tail_k_other_origin")
+        syst_a, text_a = systematic(case.get("tail_A"), alt_a, central_se=case.get("tail_A_se"))
+        syst_k, text_k = systematic(case.get("tail_k"), alt_k, central_se=case.get("tail_k_se"))
+        note += "; syst: the fit range" + (f" and z measured from {_ORIGIN_WORDS[other]}" if f"origin: {other}"
+                                            in alt_k else "")
     return [Check(qa, "2.4", source, case.get("tail_A"), case.get("tail_A_se") * inflation, case=case.name,
                   paper_range=PAPER_TAIL_A, note=_with(note + a_note, case), syst=syst_a, variants=text_a),
             Check(qk, "3.3", source, case.get("tail_k"), case.errors.get("tail_exponent"), case=case.name,

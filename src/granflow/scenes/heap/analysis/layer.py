@@ -9,6 +9,7 @@ from scipy.optimize import curve_fit
 
 from .kinematics import MovingFrame, _profile, _surface_tolerance, surface_velocity
 from .surface import (
+    PHI_C,
     CUTOFF_FRACTION,
     DELTA_MEAN_RANGE,
     EXPONENTIAL_DEPTH_FACTOR,
@@ -23,6 +24,7 @@ from .surface import (
     SurfaceFit,
     _centre_bins,
     _line_fit,
+    free_surface,
     uniform_edges,
 )
 
@@ -250,6 +252,41 @@ def _column_kinematics(group: pd.DataFrame, n_types: int, d_ref: float) -> dict:
     return row
 
 
+def local_surface(profile: pd.DataFrame, phi_c: float = PHI_C) -> pd.Series:
+    """Height of the local free surface above the fitted plane, per streamwise bin of the moving frame, m.
+
+    Where the column's time-averaged :math:`\\phi(z)` falls through :math:`\\phi_c` (:func:`free_surface`,
+    the paper's cutoff, section 3.1), so :math:`z = 0` sits on the surface the column actually has, not on
+    the plane fitted to the whole surface. The paper's plane stays within a diameter of its local surface
+    (:math:`|\\Delta z_s/d_s| < 1`, section 3.1); a short heap's S-shaped surface need not. NaN where the
+    column has no ``phi`` or never crosses :math:`\\phi_c`; indexed by ``x``.
+    """
+    out = {}
+    for x, g in profile.sort_values(["x", "z"]).groupby("x", sort=True):
+        if "phi" not in g or len(g) < 2:
+            out[float(x)] = float("nan")
+            continue
+        z = g["z"].to_numpy(float)
+        if "z_lo" in g and "z_hi" in g:
+            edges = np.append(g["z_lo"].to_numpy(float), g["z_hi"].to_numpy(float)[-1])
+        else:
+            mid = 0.5 * (z[1:] + z[:-1])
+            edges = np.concatenate([[2 * z[0] - mid[0]], mid, [2 * z[-1] - mid[-1]]])
+        out[float(x)] = float(free_surface(g["phi"].to_numpy(float)[None, :], edges, phi_c)[0])
+    return pd.Series(out, name="z_surface_local", dtype=float)
+
+
+def shift_to_surface(profile: pd.DataFrame, offsets: pd.Series) -> pd.DataFrame:
+    """The profile with each column's ``z`` (and ``z_lo``, ``z_hi``) measured from its local surface
+    (``offsets`` by ``x``, from :func:`local_surface`; a column without one keeps the plane's origin)."""
+    shift = profile["x"].map(offsets).fillna(0.0).to_numpy(float)
+    out = profile.copy()
+    for col in ("z", "z_lo", "z_hi"):
+        if col in out:
+            out[col] = out[col].to_numpy(float) - shift
+    return out
+
+
 def mass_balance(fit: SurfaceFit, geometry: HeapGeometry, *, density: float, feed_rate: float,
                  phi_bed: float) -> dict:
     """Rise velocity predicted by mass conservation, and the measured one's residual.
@@ -264,7 +301,8 @@ def mass_balance(fit: SurfaceFit, geometry: HeapGeometry, *, density: float, fee
 
 
 def analyse_heap(profile: pd.DataFrame, fit: SurfaceFit, geometry: HeapGeometry, *, density: float,
-                 feed_rate: float, phi_bed: float, d_ref: float, g: float = 9.81, n_types: int = 1):
+                 feed_rate: float, phi_bed: float, d_ref: float, g: float = 9.81, n_types: int = 1,
+                 origin: str = "local"):
     """Streamwise kinematics and scalings of the bounded heap (paper, sections 3.2-3.3).
 
     Per streamwise bin (``per_x``):
@@ -323,6 +361,11 @@ def analyse_heap(profile: pd.DataFrame, fit: SurfaceFit, geometry: HeapGeometry,
     g : float
         Gravity, m/s².
     n_types : int
+    origin : ``"local"`` or ``"plane"``
+        Where each column's :math:`z = 0` is: its local free surface (:func:`local_surface`, the default) or
+        the plane fitted to the whole surface (the paper's, exact for its planar surface). The scalars
+        carry the other origin's δ/d and tail as ``*_other_origin`` (a measurement variant), and how far the
+        local surface lies from the plane: ``surface_offset_rms`` and ``surface_offset_max_over_d``.
 
     Returns
     -------
@@ -333,16 +376,18 @@ def analyse_heap(profile: pd.DataFrame, fit: SurfaceFit, geometry: HeapGeometry,
     scalars : dict
         Keys :data:`SCALAR_KEYS`.
     """
+    if origin not in ("local", "plane"):
+        raise ValueError(f"origin = {origin!r}: allowed 'local' or 'plane'")
     moving = MovingFrame(fit, geometry)
     L, v_rn = moving.L, moving.v_r_normal
     notes = []
-    rows = []
-    for x, group in profile.sort_values(["x", "z"]).groupby("x", sort=True):
-        rows.append({"x": float(x), **_column_kinematics(group, n_types, d_ref)})
-    per_x = pd.DataFrame(rows)
+    offsets = local_surface(profile) if not profile.empty else pd.Series(dtype=float)
+    local = shift_to_surface(profile, offsets) if not profile.empty else profile
+    used, other = (local, profile) if origin == "local" else (profile, local)
+    per_x = _per_x(used, n_types, d_ref)
     if per_x.empty:
-        per_x = pd.DataFrame(columns=["x", *_column_kinematics(profile.iloc[:0], n_types, d_ref)])
         notes.append("empty profile")
+    per_x["z_surface_local"] = per_x["x"].map(offsets).astype(float) if len(per_x) else []
     per_x["usable"] = per_x["usable"].astype(bool)
     usable = per_x["usable"].to_numpy()
     x = per_x["x"].to_numpy(dtype=float)
@@ -355,7 +400,8 @@ def analyse_heap(profile: pd.DataFrame, fit: SurfaceFit, geometry: HeapGeometry,
     with np.errstate(divide="ignore", invalid="ignore"):
         per_x["q_star"] = np.where(usable, per_x["q"].to_numpy(float) / (d_bar * np.sqrt(g * d_bar)), np.nan)
     order = ["x", "x_over_L", "q", "u_s", "gamma_bar", "delta_exp", "delta_lin", "delta_cut", "delta",
-             "delta_eq31", "d_bar", "q_star", "n_profile", "usable"] + (["c_s"] if n_types == 2 else [])
+             "delta_eq31", "d_bar", "q_star", "n_profile", "usable", "z_surface_local"] + \
+        (["c_s"] if n_types == 2 else [])
     per_x = per_x[order]
     per_x.attrs.update(v_r_normal=float(v_rn), L=float(L), delta_L=delta_L)
     if not usable.all():
@@ -365,8 +411,16 @@ def analyse_heap(profile: pd.DataFrame, fit: SurfaceFit, geometry: HeapGeometry,
     xl = x / L
     window = usable & (xl >= DELTA_MEAN_RANGE[0]) & (xl <= DELTA_MEAN_RANGE[1])
     delta_mean = _nanmean(delta[window])
-    scaled = collapse(profile, per_x)
+    scaled = collapse(used, per_x)
     tail = fit_exponential_tail(scaled["zt"], scaled["ut"])
+    # the same from the other origin: a measurement variant of δ and the tail
+    alt = _per_x(other, n_types, d_ref)
+    alt_window = alt["usable"].astype(bool).to_numpy() & (alt["x"].to_numpy(float) / L >= DELTA_MEAN_RANGE[0]) & \
+        (alt["x"].to_numpy(float) / L <= DELTA_MEAN_RANGE[1]) if len(alt) else np.zeros(0, bool)
+    alt_collapse = collapse(other, alt)
+    alt_tail = fit_exponential_tail(alt_collapse["zt"], alt_collapse["ut"])
+    offset = per_x["z_surface_local"].to_numpy(float)[window] if len(per_x) else np.zeros(0)
+    offset = offset[np.isfinite(offset)]
     far = usable & (xl >= Q_STAR_MIN_X_OVER_L)
     with np.errstate(divide="ignore", invalid="ignore"):
         power = fit_power_law(per_x["q_star"].to_numpy(float)[far], delta[far] / d_bar[far])
@@ -384,8 +438,23 @@ def analyse_heap(profile: pd.DataFrame, fit: SurfaceFit, geometry: HeapGeometry,
         "q_star_prefactor": power.prefactor,
         "q0": float(per_x["q"].to_numpy(float)[usable][0]) if usable.any() else float("nan"),
         "q0_rise": float(v_rn * L), "n_usable": int(usable.sum()), "notes": "; ".join(notes),
+        "origin": origin,
+        "delta_over_d_other_origin": _nanmean(alt["delta"].to_numpy(float)[alt_window]) / d_ref if len(alt)
+        else float("nan"),
+        "tail_A_other_origin": alt_tail.A, "tail_k_other_origin": alt_tail.k,
+        "surface_offset_rms": float(np.sqrt(np.mean(offset**2))) if len(offset) else float("nan"),
+        "surface_offset_max_over_d": float(np.max(np.abs(offset)) / d_ref) if len(offset) else float("nan"),
     }
     return per_x, {k: scalars[k] for k in SCALAR_KEYS}
+
+
+def _per_x(profile: pd.DataFrame, n_types: int, d_ref: float) -> pd.DataFrame:
+    """:func:`_column_kinematics` of every streamwise bin, one row each (empty columns for an empty profile)."""
+    rows = [{"x": float(x), **_column_kinematics(group, n_types, d_ref)}
+            for x, group in profile.sort_values(["x", "z"]).groupby("x", sort=True)]
+    if not rows:
+        return pd.DataFrame(columns=["x", *_column_kinematics(profile.iloc[:0], n_types, d_ref)])
+    return pd.DataFrame(rows)
 
 
 def collapse(profile: pd.DataFrame, per_x: pd.DataFrame, v_r_normal: float | None = None) -> pd.DataFrame:

@@ -79,6 +79,8 @@ SCALAR_KEYS = (
     "tail_A", "tail_A_se", "tail_k", "tail_k_se",
     "q_star_exponent", "q_star_exponent_se", "q_star_prefactor",
     "q0", "q0_rise", "n_usable", "notes",
+    "origin", "delta_over_d_other_origin", "tail_A_other_origin", "tail_k_other_origin",
+    "surface_offset_rms", "surface_offset_max_over_d",
 )
 
 

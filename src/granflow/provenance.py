@@ -28,6 +28,9 @@ UNKNOWN = "unknown"
 PACKAGE_DIR = Path(__file__).resolve().parent
 #: the rendered inputs of a case, at the top of its directory
 INPUT_PATTERNS = ("*.lmp", "*.data", "params.json")
+#: folders of the checkout (from its top) whose untracked, not ignored files make it dirty:
+#: the code and the scene files a run can use without their being committed
+UNTRACKED_COUNTED = ("src", "config")
 _VERSION = re.compile(r"^LAMMPS \(.+\)\s*$")
 
 
@@ -54,19 +57,27 @@ def git_state(where: str | Path = PACKAGE_DIR) -> dict:
     ``where`` must hold files tracked by that checkout (so a granflow installed
     inside some other repository's untracked tree is not credited with that
     repository's commit). ``dirty`` is true when a tracked file differs from the
-    commit (``git status --porcelain --untracked-files=no``); ``dirty_files``
-    names them. Without git or a checkout every field is ``"unknown"``.
+    commit (``git status --porcelain --untracked-files=no``) or when a file under
+    ``src/`` or ``config/`` of the checkout (:data:`UNTRACKED_COUNTED`) is
+    untracked and not ignored (``git ls-files --others --exclude-standard``): a
+    new scene file or module the run may have used. ``dirty_files`` names both
+    kinds, ``untracked_files`` the second (paths from the checkout's top).
+    Untracked files elsewhere (notes, results) do not count. Without git or a
+    checkout every field is ``"unknown"``.
     """
-    unknown = {"commit": UNKNOWN, "dirty": UNKNOWN, "dirty_files": UNKNOWN}
+    unknown = {"commit": UNKNOWN, "dirty": UNKNOWN, "dirty_files": UNKNOWN, "untracked_files": UNKNOWN}
     where = Path(where)
     if not where.is_dir() or not _git(where, "ls-files", "--error-unmatch", "."):
         return unknown
     commit = _git(where, "rev-parse", "HEAD")
     status = _git(where, "status", "--porcelain", "--untracked-files=no")
-    if commit is None or status is None:
+    others = _git(where, "ls-files", "-z", "--others", "--exclude-standard", "--full-name", "--",
+                  *(f":(top){folder}" for folder in UNTRACKED_COUNTED))
+    if commit is None or status is None or others is None:
         return unknown
-    files = sorted(line[3:] for line in status.splitlines() if line.strip())
-    return {"commit": commit.strip(), "dirty": bool(files), "dirty_files": files}
+    untracked = sorted(name for name in others.split("\0") if name)
+    files = sorted({line[3:] for line in status.splitlines() if line.strip()} | set(untracked))
+    return {"commit": commit.strip(), "dirty": bool(files), "dirty_files": files, "untracked_files": untracked}
 
 
 def lammps_version(log_dir: str | Path) -> str:
@@ -155,6 +166,7 @@ def case_provenance(case_dir: str | Path, repo: str | Path = PACKAGE_DIR) -> dic
         "granflow_commit": git["commit"],
         "granflow_dirty": git["dirty"],
         "granflow_dirty_files": git["dirty_files"],
+        "granflow_untracked_files": git["untracked_files"],
         "lammps_version": lammps_version(case_dir / "run" / "logs"),
         "inputs_sha256": input_hashes(case_dir),
         "seeds": seeds(record),
@@ -177,14 +189,14 @@ def _cell(value):
 def provenance_row(prov: dict, case: str) -> dict:
     """One flat table row of a provenance record, first column ``case`` (the case directory, which
     names its sweep values); each seed a column of its own name, each hash ``sha256:<file>``
-    (the names of dirty files stay in the JSON)."""
+    (the names of dirty and untracked files stay in the JSON)."""
     row = {"case": case}
     for key, value in prov.items():
         if key == "seeds":
             row.update(value)
         elif key == "inputs_sha256":
             row.update({f"sha256:{k}": v for k, v in value.items()})
-        elif key not in ("case", "granflow_dirty_files"):
+        elif key not in ("case", "granflow_dirty_files", "granflow_untracked_files"):
             row[key] = _cell(value)
     return row
 

@@ -74,9 +74,9 @@ import pandas as pd
 
 from .contacts import ContactFrame, read_contact_dump
 from .coordinates import CartesianCoordinates, RCoordinates, RZCoordinates
-from .dump import DumpError, dump_format, missing_particle_columns, read_dumps
+from .dump import DumpError, dump_format, missing_particle_columns, read_dump, read_dumps
 from .fields import FieldAccumulator, SparseGridWarning
-from .frame import DumpFrame, ParticleFrame
+from .frame import DumpFrame, ImpossibleValues, ParticleFrame, impossible_values
 from .kernels import Gaussian, HeavisideBins, Lucy
 
 __all__ = [
@@ -88,6 +88,8 @@ __all__ = [
     "CGResult",
     "coarse_grain",
     "write_result",
+    "check_outputs",
+    "OUTPUT_NAMES",
 ]
 
 #: Coordinate choices.
@@ -104,6 +106,9 @@ DEFAULT_BLOCKS = 8
 #: A grid holding fewer particle-frames than this fraction of those read is
 #: reported as (mostly) empty.
 SPARSE_FRACTION = 0.01
+
+#: The files :func:`write_result` writes into its directory.
+OUTPUT_NAMES = ("fields.csv", "meta.json", "fields.vtr")
 
 _FIELDS = ("n", "phi", "rho", "u", "Omega", "T", "sigmac", "sigmak", "sigma", "pk", "pc", "p")
 
@@ -327,16 +332,27 @@ class CGResult:
 
 
 class _Progress:
-    """Frames done, on one stderr line (a bar when the total is known), at most every ``interval`` s."""
+    """Frames done, on one stderr line (a bar when the total is known), at most every ``interval`` s.
+
+    The first line comes one interval after the start (a refusal in the first frames is then the
+    only line); :meth:`abort` ends an open terminal line before a refusal is printed.
+    """
 
     def __init__(self, total: int | None, stream=None, interval: float = 0.5):
         self.total = total
         self.stream = stream
         self.interval = interval
         self.tty = bool(stream is not None and getattr(stream, "isatty", lambda: False)())
-        self.last = 0.0
         self.start = time.perf_counter()
+        self.last = self.start
         self.printed = False
+        self.open = False
+
+    def abort(self) -> None:
+        if self.open:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.open = False
 
     def update(self, frames: int, particles: int, step: int, final: bool = False) -> None:
         if self.stream is None:
@@ -355,6 +371,7 @@ class _Progress:
         text += f", step {step}, {rate / 1e6:.2f} M particle-frames/s"
         if self.tty:
             self.stream.write("\r" + text + ("\n" if final else ""))
+            self.open = not final
         else:
             self.stream.write(text + "\n")
         self.stream.flush()
@@ -384,12 +401,56 @@ def _first_frames(paths: Sequence[str], select: Callable[[int], bool], limit: in
 
 
 def _radii(frame: DumpFrame) -> np.ndarray | None:
+    """The frame's possible radii (finite and > 0: the others are refused or dropped as the frames are read)."""
     c = frame.columns
     if "radius" in c:
-        return np.asarray(c["radius"], float)
-    if "diameter" in c:
-        return 0.5 * np.asarray(c["diameter"], float)
-    return None
+        radii = np.asarray(c["radius"], float)
+    elif "diameter" in c:
+        radii = 0.5 * np.asarray(c["diameter"], float)
+    else:
+        return None
+    return radii[np.isfinite(radii) & (radii > 0)]
+
+
+def _atom(frame: DumpFrame, row: int) -> str:
+    """The atom in row ``row`` of the frame, by its id when the dump has one."""
+    if "id" not in frame.columns:
+        return f"atom {row + 1} of the frame (the dump has no id column)"
+    atom_id = float(frame.columns["id"][row])
+    if not math.isfinite(atom_id):
+        return f"atom {row + 1} of the frame (id {atom_id:g})"
+    return f"atom id {int(round(atom_id))}"
+
+
+def _impossible_message(path: str, frame: DumpFrame, columns: dict[str, np.ndarray], allowed: str) -> str:
+    row, column, count = ImpossibleValues.first(columns)
+    value = float(frame.columns[column][row])
+    others = f" ({count} atoms of this frame have such values)" if count > 1 else ""
+    return (f"{path}: frame at step {frame.timestep}, {_atom(frame, row)}: column {column} = {value:g} "
+            f"is not allowed: allowed {allowed}{others}")
+
+
+def _possible_atoms(path: str, frame: DumpFrame, drop_nonfinite: bool) -> tuple[DumpFrame, dict[str, int], int]:
+    """The frame, refused if an atom has a value no particle can have (:func:`~postproc.frame.impossible_values`).
+
+    A mass, radius or diameter :math:`\\le 0` is always refused; a NaN or an
+    infinity (position, velocity, spin, mass, radius) is refused unless
+    ``drop_nonfinite``, when those atoms are left out. Returns the frame (without
+    them), the dropped atoms per offending column and the number of atoms dropped.
+    """
+    found = impossible_values(frame)
+    if found is None:
+        return frame, {}, 0
+    if found.nonpositive:
+        raise CGInputError(_impossible_message(path, frame, found.nonpositive, "a positive finite number"))
+    if not drop_nonfinite:
+        raise CGInputError(_impossible_message(path, frame, found.nonfinite, "a finite number")
+                           + "; --drop-nonfinite leaves such atoms out and counts them")
+    bad = found.nonfinite_rows
+    keep = ~bad
+    kept = DumpFrame(timestep=frame.timestep, box=frame.box, boundary=frame.boundary,
+                     columns={k: v[keep] for k, v in frame.columns.items()}, time=frame.time, units=frame.units)
+    return kept, {k: int(np.count_nonzero(v)) for k, v in found.nonfinite.items()}, int(np.count_nonzero(bad))
 
 
 def _paired(frames: Iterable[ParticleFrame], contacts: Iterator[ContactFrame] | None, select,
@@ -440,6 +501,7 @@ def coarse_grain(
     n_blocks: int = DEFAULT_BLOCKS,
     max_nodes: int = DEFAULT_MAX_NODES,
     allow_truncated: bool = False,
+    drop_nonfinite: bool = False,
     progress=None,
     method: str = "auto",
 ) -> CGResult:
@@ -496,6 +558,11 @@ def coarse_grain(
     allow_truncated : bool
         On a truncated dump, keep the fields of the complete frames (with a
         warning) instead of refusing.
+    drop_nonfinite : bool
+        Leave out the atoms with a NaN or infinite position, velocity, spin,
+        mass or radius (counted in ``meta["frames"]["dropped_nonfinite"]``:
+        atom-frames, frames, the first step, per column) instead of refusing the
+        input. A mass or radius :math:`\\le 0` is refused either way.
     progress : file-like, optional
         Stream for a progress line (e.g. ``sys.stderr``); None is silent.
     method : {"auto", "compiled", "numpy"}
@@ -508,7 +575,10 @@ def coarse_grain(
     Raises
     ------
     CGInputError
-        For any refused choice or input, before reading when it can be known then.
+        For any refused choice or input, before reading when it can be known then;
+        as the frames are read, an atom with a mass, radius or diameter
+        :math:`\\le 0` or (unless ``drop_nonfinite``) a non-finite value, naming
+        the file, the step, the atom id and the column.
     """
     t_start = time.perf_counter()
     paths = [os.fspath(p) for p in dumps]
@@ -619,6 +689,7 @@ def coarse_grain(
 
     truncated = None
     n_frames = n_particles = n_inside = n_timed = 0
+    dropped = {"atom_frames": 0, "frames": 0, "first_step": None, "columns": {}}
     steps: list[int] = []  # first and last only: nothing grows with the number of frames
     intervals: set[int] = set()
     times: list[float] = []
@@ -627,8 +698,17 @@ def coarse_grain(
     def particle_frames() -> Iterator[ParticleFrame]:
         nonlocal truncated
         try:
-            for frame in read_dumps(paths, select=select):
-                yield ParticleFrame.from_dump(frame, density=density)
+            for path in paths:
+                for frame in read_dump(path, select=select):
+                    frame, columns, n_dropped = _possible_atoms(path, frame, drop_nonfinite)
+                    if n_dropped:
+                        dropped["atom_frames"] += n_dropped
+                        dropped["frames"] += 1
+                        if dropped["first_step"] is None:
+                            dropped["first_step"] = int(frame.timestep)
+                        for k, n in columns.items():
+                            dropped["columns"][k] = dropped["columns"].get(k, 0) + n
+                    yield ParticleFrame.from_dump(frame, density=density)
         except DumpError as exc:
             if getattr(exc, "truncated", False) and allow_truncated:
                 truncated = str(exc)
@@ -648,27 +728,31 @@ def coarse_grain(
                 raise CGInputError(str(exc)) from None
         contact_stream = contact_frames()
 
-    for frame, contact in _paired(particle_frames(), contact_stream, select, lambda: truncated is None):
-        if contact is not None and contact.branch is None:
-            contact = contact.with_branch(frame)
-        try:
-            accumulator.accumulate(frame, contact)
-        except (ValueError, KeyError) as exc:
-            raise CGInputError(f"frame at step {frame.timestep}: {exc}") from None
-        n_frames += 1
-        n_particles += len(frame.mass)
-        if len(frame.mass):
-            n_inside += int(grid.contains(coordinates.points(frame)).sum())
-        if steps:
-            if len(intervals) < 16:
-                intervals.add(int(frame.timestep) - steps[-1])
-            steps[1:] = [int(frame.timestep)]
-        else:
-            steps.append(int(frame.timestep))
-        if frame.time is not None:
-            n_timed += 1
-            times[min(len(times), 1):] = [float(frame.time)]
-        bar.update(n_frames, n_particles, frame.timestep)
+    try:
+        for frame, contact in _paired(particle_frames(), contact_stream, select, lambda: truncated is None):
+            if contact is not None and contact.branch is None:
+                contact = contact.with_branch(frame)
+            try:
+                accumulator.accumulate(frame, contact)
+            except (ValueError, KeyError) as exc:
+                raise CGInputError(f"frame at step {frame.timestep}: {exc}") from None
+            n_frames += 1
+            n_particles += len(frame.mass)
+            if len(frame.mass):
+                n_inside += int(grid.contains(coordinates.points(frame)).sum())
+            if steps:
+                if len(intervals) < 16:
+                    intervals.add(int(frame.timestep) - steps[-1])
+                steps[1:] = [int(frame.timestep)]
+            else:
+                steps.append(int(frame.timestep))
+            if frame.time is not None:
+                n_timed += 1
+                times[min(len(times), 1):] = [float(frame.time)]
+            bar.update(n_frames, n_particles, frame.timestep)
+    except CGInputError:
+        bar.abort()
+        raise
     bar.update(n_frames, n_particles, steps[-1] if steps else 0, final=True)
     if n_frames == 0:
         raise CGInputError(f"no complete frame selected ({select.describe()}) in {', '.join(paths)}")
@@ -709,6 +793,7 @@ def coarse_grain(
             "truncated": truncated,
             "particle_frames": n_particles,
             "particle_frames_in_grid": n_inside,
+            "dropped_nonfinite": dropped if drop_nonfinite else None,
         },
         "coordinates": {"choice": coords, "names": list(coordinates.names),
                         "components": list(getattr(coordinates, "components", ("x", "y", "z"))),
@@ -734,6 +819,16 @@ def coarse_grain(
     return CGResult(fields=fields_table, meta=meta, grid=grid, warnings=warnings)
 
 
+def describe_dropped(dropped: dict, n_frames: int) -> str:
+    """``dropped`` (``meta["frames"]["dropped_nonfinite"]``) in words."""
+    if not dropped["atom_frames"]:
+        return "no atom (none had a non-finite value)"
+    columns = ", ".join(f"{k} {n}" for k, n in dropped["columns"].items())
+    n = dropped["atom_frames"]
+    return (f"{n} atom-frame{'s' if n != 1 else ''} with a NaN or infinite value, in {dropped['frames']} of "
+            f"{n_frames} frames (the first at step {dropped['first_step']}; by column: {columns})")
+
+
 def _tidy(table: pd.DataFrame, names: Sequence[str]) -> pd.DataFrame:
     """Node coordinates first (named as the coordinates), velocity as ``v_<c>``, no bin bounds."""
     drop = [f"{n}_{s}" for n in names for s in ("lo", "hi")]
@@ -747,15 +842,49 @@ def _tidy(table: pd.DataFrame, names: Sequence[str]) -> pd.DataFrame:
 # --------------------------------------------------------------------------- output
 
 
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether paths ``a`` and ``b`` name one file (after links; hard links too when both exist)."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_outputs(out_dir: str | os.PathLike, inputs: Iterable[str | os.PathLike]) -> None:
+    """Refuse an output directory whose writing would replace an input.
+
+    Raises :class:`CGInputError` naming the input when ``out_dir`` is an input
+    file, when one of the files :func:`write_result` writes there
+    (:data:`OUTPUT_NAMES`) is an input (by name, through a symbolic link or as a
+    hard link), or when ``out_dir`` exists and is not a directory.
+    """
+    out = Path(out_dir)
+    for given in inputs:
+        source = Path(given)
+        if _same_file(out, source):
+            raise CGInputError(f"--out {out} is the input {given}: granflow cg never writes over its input; "
+                               f"choose a directory for the fields")
+        for name in OUTPUT_NAMES:
+            if _same_file(out / name, source):
+                raise CGInputError(f"--out {out} would write {out / name} over the input {given}: granflow cg "
+                                   f"never writes over its input; choose another --out")
+    if out.exists() and not out.is_dir():
+        raise CGInputError(f"--out {out} exists and is not a directory: choose a directory for the fields")
+
+
 def write_result(result: CGResult, out_dir: str | os.PathLike) -> dict[str, Path]:
     """Write ``fields.csv``, ``meta.json`` and ``fields.vtr`` into ``out_dir``.
 
     ``fields.vtr`` is a VTK rectilinear grid (written by ``pyevtk``) with one
     point array per column of the table; resolved coordinates map to the VTK
     axes x, y, z by name (``r`` to x), unresolved ones are a single layer at
-    zero.
+    zero. Raises :class:`CGInputError` (:func:`check_outputs`), writing
+    nothing, when that would replace one of the result's inputs.
     """
     out = Path(out_dir)
+    check_outputs(out, [entry["path"] for entry in result.meta.get("inputs", ())])
     out.mkdir(parents=True, exist_ok=True)
     paths = {"fields": out / "fields.csv", "meta": out / "meta.json", "vtk": out / "fields.vtr"}
     result.fields.to_csv(paths["fields"], index=False)

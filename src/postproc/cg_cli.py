@@ -12,7 +12,7 @@ import textwrap
 from pathlib import Path
 
 from .cg import (COORDINATES, DEFAULT_BLOCKS, DEFAULT_MAX_NODES, GAUSSIAN_CUTOFF, KERNELS, CGInputError,
-                 coarse_grain, parse_numbers, parse_ranges, write_result)
+                 check_outputs, coarse_grain, describe_dropped, parse_numbers, parse_ranges, write_result)
 
 DESCRIPTION = """\
 Coarse-grain LAMMPS `dump custom` files (text, gzipped text or binary, told
@@ -27,6 +27,11 @@ EPILOG = f"""\
 The dump needs x y z (or xu yu zu, xs ys zs), vx vy vz, radius or diameter,
 and mass (or --density); id for --contacts, type for --species. A value
 that starts with a minus sign needs '=': --range=-20:50, --axis=-3,4.
+An atom with a mass, radius or diameter <= 0 is refused, and so is one with
+a NaN or infinite position, velocity, spin, mass or radius unless
+--drop-nonfinite leaves it out (counted in the output and meta.json); the
+refusal names the file, the step, the atom id and the column. The outputs
+never replace an input.
 
 coordinates: x y z xy xz yz xyz resolve those axes and integrate over the rest
   of the box; r is the distance from the vertical axis --axis X0,Y0 (default
@@ -78,6 +83,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help=f"refuse grids with more nodes (default {DEFAULT_MAX_NODES})")
     ap.add_argument("--allow-truncated", action="store_true",
                     help="on a truncated dump keep the fields of the complete frames")
+    ap.add_argument("--drop-nonfinite", action="store_true",
+                    help="leave out atoms with a NaN or infinite position, velocity, spin, mass or radius "
+                         "(counted in the output and meta.json) instead of refusing the dump")
     ap.add_argument("--overwrite", action="store_true", help="replace the outputs already in DIR")
     ap.add_argument("--quiet", action="store_true", help="no progress line")
     ap.add_argument("--out", required=True, metavar="DIR", help="output directory")
@@ -112,6 +120,7 @@ def run(args: argparse.Namespace, command: str | None = None) -> int:
     """
     out = Path(args.out)
     try:
+        check_outputs(out, [*args.dumps, *args.contacts])
         if (out / "fields.csv").exists() and not args.overwrite:
             raise CGInputError(f"--out {out} already holds fields.csv from an earlier run; choose another "
                                f"--out or pass --overwrite")
@@ -126,10 +135,10 @@ def run(args: argparse.Namespace, command: str | None = None) -> int:
             contacts=args.contacts, contact_roles=_roles(args.contact_columns), species=_species(args.species),
             frames=args.frames, density=args.density, volume="exact" if args.exact_volume else "centre",
             n_blocks=args.blocks, max_nodes=args.max_nodes, allow_truncated=args.allow_truncated,
-            progress=None if args.quiet else sys.stderr,
+            drop_nonfinite=args.drop_nonfinite, progress=None if args.quiet else sys.stderr,
         )
     except CGInputError as exc:
-        print(f"granflow cg: refused: {exc}", file=sys.stderr)
+        print(f"granflow: refused: {exc}", file=sys.stderr)
         return 2
     result.meta["command"] = command
     paths = write_result(result, out)
@@ -140,6 +149,8 @@ def run(args: argparse.Namespace, command: str | None = None) -> int:
     print(f"  kernel {meta['kernel']['name']}"
           + (f" width {meta['kernel']['width']:g}" if meta['kernel']['width'] else "")
           + f"; {meta['elapsed_s']:.1f} s, {meta['particle_frames_per_s'] / 1e6:.2f} M particle-frames/s")
+    if frames["dropped_nonfinite"] is not None:
+        print(f"  --drop-nonfinite: left out {describe_dropped(frames['dropped_nonfinite'], frames['count'])}")
     for w in result.warnings:
         print(textwrap.fill(f"warning: {w}", width=100, subsequent_indent="  "), file=sys.stderr)
     print("  wrote " + ", ".join(str(p) for p in paths.values()))

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import gzip
 import json
+import os
 import shutil
 import struct
 import subprocess
@@ -434,3 +435,183 @@ def test_exact_volume_splits_spheres_over_slabs(tmp_path):
     assert cg(tmp_path / "one.dump", "--coords", "z", "--kernel", "heaviside", "--spacing", 1,
               "--out", tmp_path / "centre") == 0
     np.testing.assert_allclose(fields(tmp_path / "centre")["phi"], [0.0, 2 * half], rtol=1e-12)
+
+
+# --------------------------------------------------------------------------- impossible particles
+
+
+def refusal(capsys, *args) -> str:
+    """The one line after 'granflow: refused: ' of a refused command (exit 2, no traceback)."""
+    assert cg(*args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("granflow: refused: ") and "Traceback" not in err, err
+    assert err.count("\n") == 1, err
+    return err[len("granflow: refused: "):].strip()
+
+
+def impossible_dump(path, column, value, step=200, atom=7, writer=write_text, columns=COLUMNS):
+    """Frames 0, 100, 200 of a 2 x 2 x 4 lattice; at ``step`` atom id ``atom`` has ``column`` = ``value``.
+
+    Atoms are written in reverse id order: the reader sorts them, the message names the id."""
+    frames = []
+    for s in (0, 100, 200):
+        data = {k: np.asarray(v, dtype=float)[::-1].copy() for k, v in particles(lattice(2, 2, 4)).items()}
+        if "diameter" in columns:
+            data["diameter"] = 2.0 * data.pop("radius")
+        if s == step:
+            data[column][data["id"] == atom] = value
+        frames.append((s, None, data))
+    writer(path, frames, columns, [0, 2, 0, 2, 0, 4])
+    return path
+
+
+HEAVISIDE_Z = ("--coords", "z", "--kernel", "heaviside", "--spacing", 1)
+
+
+@pytest.mark.parametrize("column, value, allowed", [
+    ("mass", -1.0, "a positive finite number"),
+    ("mass", 0.0, "a positive finite number"),
+    ("radius", 0.0, "a positive finite number"),
+    ("radius", -0.4, "a positive finite number"),
+    ("mass", np.nan, "a finite number"),
+    ("radius", np.inf, "a finite number"),
+    ("x", np.nan, "a finite number"),
+    ("z", np.inf, "a finite number"),
+    ("vy", -np.inf, "a finite number"),
+    ("vz", np.nan, "a finite number"),
+])
+@pytest.mark.parametrize("writer", [write_text, write_binary], ids=["text", "binary"])
+def test_impossible_particles_are_refused_naming_file_step_atom_and_column(tmp_path, capsys, column, value,
+                                                                           allowed, writer):
+    dump = impossible_dump(tmp_path / "bad.dump", column, value, writer=writer)
+    out = tmp_path / "o"
+    line = refusal(capsys, dump, *HEAVISIDE_Z, "--out", out)
+    assert line.startswith(f"{dump}: frame at step 200, atom id 7: column {column} = {value:g} is not allowed: "
+                           f"allowed {allowed}"), line
+    assert ("--drop-nonfinite" in line) == (allowed == "a finite number")
+    assert not out.exists()  # nothing written
+
+
+def test_diameter_and_atoms_without_ids_are_named(tmp_path, capsys):
+    dump = impossible_dump(tmp_path / "d.dump", "diameter", -0.8, step=0, atom=3,
+                           columns=[c if c != "radius" else "diameter" for c in COLUMNS])
+    line = refusal(capsys, dump, *HEAVISIDE_Z, "--out", tmp_path / "o")
+    assert "frame at step 0, atom id 3: column diameter = -0.8 is not allowed" in line
+    # no id column: the atom is named by its place in the frame (atoms 16..1 written in reverse: id 3 is 14th)
+    dump = impossible_dump(tmp_path / "noid.dump", "vx", np.nan, step=100, atom=3, columns=COLUMNS[1:])
+    line = refusal(capsys, dump, *HEAVISIDE_Z, "--out", tmp_path / "o")
+    assert "frame at step 100, atom 14 of the frame (the dump has no id column): column vx = nan" in line
+
+
+def test_several_bad_atoms_are_counted_and_mass_below_zero_beats_drop_nonfinite(tmp_path, capsys):
+    frames = [(0, None, particles(lattice(2, 2, 4)))]
+    frames[0][2]["mass"] = np.where(np.arange(16) % 4 == 1, -2.0, 2.0)  # ids 2, 6, 10, 14
+    frames[0][2]["vx"] = np.full(16, np.nan)
+    write_text(tmp_path / "m.dump", frames, COLUMNS, [0, 2, 0, 2, 0, 4])
+    line = refusal(capsys, tmp_path / "m.dump", *HEAVISIDE_Z, "--drop-nonfinite", "--out", tmp_path / "o")
+    assert "atom id 2: column mass = -2 is not allowed" in line and "(4 atoms of this frame" in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_drop_nonfinite_leaves_the_atoms_out_and_counts_them(tmp_path, capsys):
+    """The fields with --drop-nonfinite are those of the dump without the bad atoms, exactly."""
+    frames = random_frames()
+    bad = {0: [("x", 3, np.nan)], 200: [("vz", 5, np.inf), ("z", 5, np.nan), ("mass", 9, np.nan)],
+           400: [("radius", 11, -np.inf)]}
+    dirty, clean = [], []
+    for step, t, data in frames:
+        data = {k: np.asarray(v, dtype=float).copy() for k, v in data.items()}
+        drop = np.zeros(len(data["id"]), bool)
+        for column, atom, value in bad.get(step, []):
+            data[column][data["id"] == atom] = value
+            drop |= data["id"] == atom
+        dirty.append((step, t, data))
+        clean.append((step, t, {k: v[~drop] for k, v in data.items()}))
+    write_binary(tmp_path / "dirty.bin", dirty, COLUMNS, [0, 5, 0, 5, 0, 10])
+    write_binary(tmp_path / "clean.bin", clean, COLUMNS, [0, 5, 0, 5, 0, 10])
+    args = ("--coords", "z", "--width", 0.5, "--spacing", 0.5, "--quiet")
+    line = refusal(capsys, tmp_path / "dirty.bin", *args, "--out", tmp_path / "o")
+    assert "frame at step 0, atom id 3: column x = nan" in line
+    assert cg(tmp_path / "dirty.bin", *args, "--drop-nonfinite", "--out", tmp_path / "dropped") == 0
+    out = capsys.readouterr().out
+    assert ("--drop-nonfinite: left out 4 atom-frames with a NaN or infinite value, in 3 of 5 frames "
+            "(the first at step 0; by column: x 1, z 1, vz 1, mass 1, radius 1)") in out
+    meta = json.loads((tmp_path / "dropped" / "meta.json").read_text())
+    assert meta["frames"]["dropped_nonfinite"] == {"atom_frames": 4, "frames": 3, "first_step": 0,
+                                                   "columns": {"x": 1, "z": 1, "vz": 1, "radius": 1, "mass": 1}}
+    assert meta["frames"]["particle_frames"] == 5 * 60 - 4
+    assert cg(tmp_path / "clean.bin", *args, "--out", tmp_path / "clean") == 0
+    pd.testing.assert_frame_equal(fields(tmp_path / "dropped"), fields(tmp_path / "clean"), check_exact=True)
+    # on a clean dump the option reports that nothing was left out; without it the record says null
+    assert cg(tmp_path / "clean.bin", *args, "--drop-nonfinite", "--out", tmp_path / "none") == 0
+    assert "left out no atom" in capsys.readouterr().out
+    assert json.loads((tmp_path / "none" / "meta.json").read_text())["frames"]["dropped_nonfinite"]["atom_frames"] == 0
+    assert json.loads((tmp_path / "clean" / "meta.json").read_text())["frames"]["dropped_nonfinite"] is None
+
+
+def test_impossible_values_fast_pass_has_no_false_alarm():
+    """Huge finite positions overflow the fast pass's sum; the element-wise pass clears them."""
+    from postproc.frame import DumpFrame, impossible_values
+
+    data = {k: np.asarray(v, dtype=float) for k, v in particles(lattice(1, 1, 3)).items()}
+    data["x"] = np.full(3, 1e308)
+    frame = DumpFrame(timestep=0, box=np.zeros((3, 2)), boundary="p p p", columns=data)
+    assert impossible_values(frame) is None
+    data["vy"][1] = np.nan
+    data["mass"][2] = 0.0
+    found = impossible_values(frame)
+    assert list(found.nonfinite) == ["vy"] and list(found.nonpositive) == ["mass"]
+    assert found.first(found.nonfinite) == (1, "vy", 1) and found.first(found.nonpositive) == (2, "mass", 1)
+    # columns the particle is not built from (an unwrapped copy beside x y z, a stress) are not checked
+    frame.columns["xu"] = np.full(3, np.nan)
+    frame.columns["c_stress[1]"] = np.full(3, np.inf)
+    assert list(impossible_values(frame).nonfinite) == ["vy"]
+
+
+# --------------------------------------------------------------------------- never over its own input
+
+
+def test_outputs_never_replace_an_input(lattice_dump, tmp_path, capsys):
+    folder = lattice_dump.parent
+    before = lattice_dump.read_bytes()
+    # --out the folder holding the input: allowed (the input's name is not an output's) and left alone
+    assert cg(lattice_dump, *HEAVISIDE_Z, "--out", folder, "--quiet") == 0
+    assert cg(lattice_dump, *HEAVISIDE_Z, "--out", folder, "--quiet", "--overwrite") == 0
+    assert lattice_dump.read_bytes() == before
+    # an input named like an output, in the --out folder: refused, with or without --overwrite
+    named = folder / "meta.json"
+    named.write_bytes(before)
+    for extra in ((), ("--overwrite",)):
+        line = refusal(capsys, named, *HEAVISIDE_Z, "--out", folder, *extra)
+        assert line == (f"--out {folder} would write {named} over the input {named}: granflow cg never "
+                        f"writes over its input; choose another --out")
+        assert named.read_bytes() == before
+    # --out the input file itself
+    line = refusal(capsys, lattice_dump, *HEAVISIDE_Z, "--out", lattice_dump, "--overwrite")
+    assert line.startswith(f"--out {lattice_dump} is the input {lattice_dump}")
+    # an output that is a link to the input (symbolic or hard), and a contact file
+    (tmp_path / "sym").mkdir()
+    (tmp_path / "sym" / "fields.vtr").symlink_to(lattice_dump)
+    line = refusal(capsys, lattice_dump, *HEAVISIDE_Z, "--out", tmp_path / "sym", "--overwrite")
+    assert f"over the input {lattice_dump}" in line
+    (tmp_path / "hard").mkdir()
+    os.link(lattice_dump, tmp_path / "hard" / "fields.csv")
+    line = refusal(capsys, lattice_dump, *HEAVISIDE_Z, "--out", tmp_path / "hard", "--overwrite")
+    assert f"would write {tmp_path / 'hard' / 'fields.csv'} over the input {lattice_dump}" in line
+    contacts = folder / "fields.csv"
+    write_contacts(contacts, [(s, []) for s in (0, 100, 200, 300)], [0, 4, 0, 4, 0, 16])
+    line = refusal(capsys, lattice_dump, "--contacts", contacts, *HEAVISIDE_Z, "--out", folder, "--overwrite")
+    assert f"over the input {contacts}" in line
+    assert lattice_dump.read_bytes() == before and named.read_bytes() == before
+
+
+def test_write_result_refuses_to_replace_an_input(lattice_dump, tmp_path):
+    from postproc.cg import CGInputError, coarse_grain, write_result
+
+    result = coarse_grain([lattice_dump], "z", kernel="heaviside", spacing=1.0)
+    before = lattice_dump.read_bytes()
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "fields.csv").symlink_to(lattice_dump)
+    with pytest.raises(CGInputError, match="over the input"):
+        write_result(result, tmp_path / "out")
+    assert lattice_dump.read_bytes() == before and not (tmp_path / "out" / "meta.json").exists()

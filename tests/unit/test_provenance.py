@@ -63,6 +63,7 @@ def test_case_provenance_of_a_hand_made_case(tmp_path):
         "granflow_commit": "unknown",
         "granflow_dirty": "unknown",
         "granflow_dirty_files": "unknown",
+        "granflow_untracked_files": "unknown",
         "lammps_version": VERSION,
         "inputs_sha256": {name: digest(case / name)
                           for name in ("atoms.data", "flow.lmp", "init.lmp", "params.json")},
@@ -120,11 +121,11 @@ def test_git_state_clean_then_dirty(tmp_path):
     git(repo, "commit", "-q", "-m", "first")
     head = git(repo, "rev-parse", "HEAD")
     where = repo / "src" / "pkg"
-    assert git_state(where) == {"commit": head, "dirty": False, "dirty_files": []}
+    assert git_state(where) == {"commit": head, "dirty": False, "dirty_files": [], "untracked_files": []}
     (repo / "untracked.txt").write_text("u\n")  # untracked files do not make the tree dirty
     assert git_state(where)["dirty"] is False
     (repo / "README").write_text("changed\n")  # a tracked file anywhere in the checkout does
-    assert git_state(where) == {"commit": head, "dirty": True, "dirty_files": ["README"]}
+    assert git_state(where) == {"commit": head, "dirty": True, "dirty_files": ["README"], "untracked_files": []}
     # a directory of the checkout holding no tracked file (a venv inside the tree) is not credited
     (repo / "venv" / "pkg").mkdir(parents=True)
     assert git_state(repo / "venv" / "pkg")["commit"] == "unknown"
@@ -134,8 +135,48 @@ def test_git_state_clean_then_dirty(tmp_path):
     assert (prov["granflow_commit"], prov["granflow_dirty"], prov["granflow_dirty_files"]) == (head, True, ["README"])
 
 
+@pytest.mark.skipif(shutil.which("git") is None, reason="needs git")
+def test_untracked_files_under_src_and_config_make_the_checkout_dirty(tmp_path):
+    """A scene file or module in use but never committed is dirt; an ignored file, or an untracked one
+    outside src/ and config/, is not."""
+    repo = tmp_path / "repo"
+    for folder in ("src/pkg", "config/scenes"):
+        (repo / folder).mkdir(parents=True)
+    git(repo, "init", "-q")
+    (repo / "src" / "pkg" / "mod.py").write_text("x = 1\n")
+    (repo / "config" / "config.yaml").write_text("rung: demo\n")
+    (repo / ".gitignore").write_text("__pycache__/\n*.tmp\n")
+    git(repo, "add", ".")
+    git(repo, "commit", "-q", "-m", "first")
+    head = git(repo, "rev-parse", "HEAD")
+    where = repo / "src" / "pkg"
+    # ignored (bytecode, a scratch file) and outside the counted folders: still clean
+    (repo / "src" / "pkg" / "__pycache__").mkdir()
+    (repo / "src" / "pkg" / "__pycache__" / "mod.cpython-311.pyc").write_bytes(b"\0")
+    (repo / "config" / "scratch.tmp").write_text("t\n")
+    (repo / "notes.txt").write_text("n\n")
+    (repo / "results").mkdir()
+    (repo / "results" / "table.csv").write_text("a\n")
+    assert git_state(where) == {"commit": head, "dirty": False, "dirty_files": [], "untracked_files": []}
+    # an untracked scene file and module: dirty, named from the checkout's top (even in a new folder)
+    (repo / "config" / "scenes" / "new scene.yaml").write_text("case: {}\n")
+    (repo / "src" / "pkg" / "extra").mkdir()
+    (repo / "src" / "pkg" / "extra" / "more.py").write_text("y = 2\n")
+    untracked = ["config/scenes/new scene.yaml", "src/pkg/extra/more.py"]
+    assert git_state(where) == {"commit": head, "dirty": True, "dirty_files": untracked,
+                                "untracked_files": untracked}
+    # with a tracked change as well, dirty_files names both kinds
+    (repo / "config" / "config.yaml").write_text("rung: study\n")
+    state = git_state(where)
+    assert state["dirty_files"] == ["config/config.yaml", *untracked] and state["untracked_files"] == untracked
+    # the provenance record lists them; the table keeps lists out of its cells
+    prov = case_provenance(make_case(tmp_path / "case"), repo=where)
+    assert prov["granflow_dirty"] is True and prov["granflow_untracked_files"] == untracked
+    assert "granflow_untracked_files" not in provenance_table({"case": prov}).columns
+
+
 def test_git_state_unknown_without_a_checkout_or_git(tmp_path, monkeypatch):
-    unknown = {"commit": "unknown", "dirty": "unknown", "dirty_files": "unknown"}
+    unknown = {"commit": "unknown", "dirty": "unknown", "dirty_files": "unknown", "untracked_files": "unknown"}
     assert git_state(tmp_path) == unknown
     assert git_state(tmp_path / "absent") == unknown
     monkeypatch.setenv("PATH", str(tmp_path))  # no git executable at all

@@ -77,22 +77,25 @@ def write_rung(ladder: dict, rung: dict, results: Path) -> tuple[Path, Path]:
     return scene_file, campaign_file
 
 
-def plan(campaign_file: Path) -> dict:
+def plan(campaign_file: Path, priced_only: bool = False) -> dict:
+    """The rung's plan; a rung ``priced_only`` (planned, never run here) is not held to this
+    machine's CPU-hour limit (``max_cpu_hours``, a week of its cores by default)."""
     from granflow.resources import plan_campaign
 
-    cfg = load_campaign(campaign_file, root=ROOT)
+    cfg = load_campaign(campaign_file, ["max_cpu_hours=1000000000"] if priced_only else [], root=ROOT)
     return plan_campaign(cfg, Path(cfg["results_dir"]))
 
 
 def targets(plan_: dict) -> list[str]:
-    return [str(Path(r["case_dir"]) / "analysis") for r in plan_["rows"]]
+    """Each case's analysis, named by the checksum list analyse writes last."""
+    return [str(Path(r["case_dir"]) / "analysis" / "SHA256SUMS") for r in plan_["rows"]]
 
 
 def cmd_prepare(args) -> int:
     ladder = load_ladder(args.ladder)
     for rung in ladder["rungs"] + ladder.get("planned", []):
         _, campaign = write_rung(ladder, rung, args.results)
-        p = plan(campaign)
+        p = plan(campaign, priced_only=rung in ladder.get("planned", []))
         tot = p["total"]
         kind = "planned (not run)" if rung in ladder.get("planned", []) else "to run"
         print(f"# {rung['name']}: {rung['knob']} [{kind}]: {tot.get('cpu_hours', float('nan')):.2f} CPU-h upper bound, "
@@ -187,7 +190,7 @@ def table(ladder: dict, results: Path) -> pd.DataFrame:
                          "cpu_hours": cpu})
     for rung in ladder.get("planned", []):
         _, campaign = write_rung(ladder, rung, results)
-        p = plan(campaign)
+        p = plan(campaign, priced_only=True)
         rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "planned (cost model, not run)",
                      "cases": len(p["rows"]), "particles": ", ".join(f"{r['particles']:,}" for r in p["rows"]),
                      "cpu_hours": p["total"]["cpu_hours"]})

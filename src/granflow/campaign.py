@@ -28,9 +28,11 @@ def validate_campaign(data: dict, root: Path, source: str = "config") -> dict:
 def load_campaign(path: str | Path, overrides: Iterable[str] = (), root: Path | None = None) -> dict:
     """Load, override and validate the campaign file and every enabled scene file.
 
-    Returns the campaign dict with each enabled scene's validated file content
+    Scene files and a relative ``results_dir`` are found from ``root`` (default: the working
+    directory, the project root for every command, as for Snakemake), never from where the
+    file lies. Returns the campaign dict with each enabled scene's validated file content
     under ``scenes.<name>.scene``.
     """
     data = apply_overrides(load_yaml(path), overrides)
-    root = Path(root) if root else Path(path).resolve().parent.parent
+    root = Path(root) if root else Path.cwd()
     return validate_campaign(data, root, source=str(path))

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import shlex
 import sys
@@ -40,8 +41,9 @@ from postproc import cg_cli
 
 from . import registry
 from .campaign import load_campaign
-from .config import PROJECT_ROOT, ConfigError, check_size, load_scene, load_yaml
-from .preflight import PreflightError
+from .config import (LIMIT_KEYS, PROJECT_ROOT, ConfigError, check_limits, check_rung, check_size, load_scene,
+                     load_yaml)
+from .preflight import PreflightError, check_ranks
 
 #: exit codes: a user's mistake (bad input, refused before anything runs) and a run that failed
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -55,7 +57,8 @@ def _add_set(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a value by its dotted path (repeatable), validated exactly like the "
                         "file; VALUE is read as YAML, e.g. --set case.phi_mean=0.61 or "
-                        "--set scenes.channel.sweep.W=[20,30]")
+                        "--set scenes.channel.sweep.W=[20,30]; a name holding a dot goes in quotes: "
+                        "--set 'particles.mixtures.\"mono1.5\".diameters=[1.6e-3]'")
 
 
 def _add_limits(p: argparse.ArgumentParser) -> None:
@@ -65,30 +68,69 @@ def _add_limits(p: argparse.ArgumentParser) -> None:
     p.add_argument("--memory-mb", type=float, default=None, metavar="MB",
                    help="refuse a case estimated above MB of memory (default: the campaign's "
                         "memory_mb, else this machine's memory)")
+    p.add_argument("--max-cpu-hours", type=float, default=None, metavar="H",
+                   help="refuse a case, or a campaign's cases together, estimated above H CPU-hours "
+                        "(default: the campaign's max_cpu_hours, else a week of this machine's cores, "
+                        "7 x 24 x os.cpu_count())")
 
 
 def _limit_overrides(args) -> list[str]:
-    """``--max-particles``/``--memory-mb`` as campaign overrides (validated with the file)."""
+    """``--max-particles``/``--memory-mb``/``--max-cpu-hours`` as campaign overrides (validated with the file)."""
     out = []
     if getattr(args, "max_particles", None) is not None:
         out.append(f"max_particles={args.max_particles}")
-    if getattr(args, "memory_mb", None) is not None:
-        out.append(f"memory_mb={args.memory_mb!r}")
+    for key in ("memory_mb", "max_cpu_hours"):
+        value = getattr(args, key, None)
+        if value is not None:  # as YAML: nan and inf are .nan and .inf there (refused as not finite)
+            out.append(f"{key}={value!r}" if math.isfinite(value) else f"{key}={'-' * (value < 0)}.{abs(value)!r}")
     return out
 
 
 def _limits(args) -> dict:
-    return {"max_particles": args.max_particles, "memory_mb": args.memory_mb}
+    """The limits given on the command line, checked against the campaign schema's bounds."""
+    given = {key: getattr(args, key, None) for key in LIMIT_KEYS}
+    return check_limits({k: v for k, v in given.items() if v is not None})
+
+
+def _check_case(scene: dict, rung: str, limits: dict, source: str) -> None:
+    """What ``granflow render`` checks before it writes anything, also run by ``check-config`` on a
+    scene file: the rung exists, and the case (the file's ``case:``) fits the limits, its geometry
+    and its time step (:func:`granflow.config.check_size`, which derives the deck's parameters)."""
+    check_rung(scene, rung)
+    check_size(scene["scene"], scene, rung, None, limits, source, f"{scene['scene']} at rung {rung}")
 
 
 def cmd_check_config(args) -> int:
+    """A campaign file: every case of the campaign, as Snakemake validates it (``--rung`` sets its
+    rung). A scene file: its schema and cross-field rules, then its case at ``--rung`` with the
+    checks ``granflow render`` runs (:func:`_check_case`: size limits, geometry, time step),
+    refused as render would refuse it; without ``--rung`` at every rung of the file, refused only
+    if no rung can render it, the rungs that cannot listed with the reason."""
     path = Path(args.file)
     data = load_yaml(path)
     if "scene" in data:
-        load_scene(path, args.overrides)
-        print(f"{path}: valid {data['scene']} scene file")
+        scene = load_scene(path, args.overrides)
+        limits = _limits(args)
+        rungs = [args.rung] if args.rung else list(scene["rungs"])
+        refused = {}
+        for rung in rungs:
+            try:
+                _check_case(scene, rung, limits, str(path))
+            except (ConfigError, PreflightError) as exc:
+                if args.rung:
+                    raise
+                refused[rung] = str(exc)
+        ok = [rung for rung in rungs if rung not in refused]
+        if not ok:
+            raise ConfigError(f"{path}: its case cannot be rendered at any rung (--rung R checks one):\n  "
+                              + "\n  ".join(refused.values()))
+        print(f"{path}: valid {scene['scene']} scene file; its case renders at rung{'s' * (len(ok) > 1)} "
+              f"{', '.join(ok)}")
+        for rung, why in refused.items():
+            print(f"  not at rung {rung} (render and check-config --rung {rung} refuse it): {why}")
     else:
-        cfg = load_campaign(path, [*args.overrides, *_limit_overrides(args)], root=Path.cwd())
+        overrides = [*([f"rung={args.rung}"] if args.rung else []), *args.overrides, *_limit_overrides(args)]
+        cfg = load_campaign(path, overrides, root=Path.cwd())
         scenes = [n for n, s in cfg["scenes"].items() if s.get("enabled", True)]
         print(f"{path}: valid campaign, rung {cfg['rung']}, scenes: {', '.join(scenes) or 'none'}")
     return 0
@@ -132,9 +174,7 @@ def cmd_render(args) -> int:
     if scene["scene"] != args.scene:
         raise UsageError(f"--config {scene_file} describes the {scene['scene']} scene: allowed a {args.scene} "
                          f"scene file (or render {scene['scene']})")
-    from .config import check_rung
-    check_rung(scene, args.rung)
-    check_size(args.scene, scene, args.rung, None, _limits(args), str(scene_file), f"{args.scene} at rung {args.rung}")
+    _check_case(scene, args.rung, _limits(args), str(scene_file))
     _check_out(args.out, lambda: scene_parameters(scene, args.rung)[1]["record"], args.force)
     record = render_case(scene, args.rung, args.out)
     prm = record["parameters"]
@@ -189,6 +229,8 @@ def cmd_run(args) -> int:
     if args.np < 1:
         raise UsageError(f"--np {args.np} is not allowed: allowed 1 <= np")
     path = _check_case_dir(args.case_dir)
+    # a user's --np only: the workflow's ranks come from the scene and the machine
+    check_ranks(json.loads((path / "params.json").read_text()), args.np)
     try:
         status = run_case(path, args.np)
     except RunError as exc:
@@ -202,8 +244,10 @@ def cmd_run(args) -> int:
 def cmd_plan(args) -> int:
     from .resources import format_plan, plan_campaign
 
-    path = Path(args.config or PROJECT_ROOT / "config" / "config.yaml")
-    root = path.resolve().parent.parent
+    # the project root is the working directory, as for check-config and snakemake: scene files and a
+    # relative results_dir are found from there, wherever the campaign file lies
+    root = Path.cwd()
+    path = Path(args.config or "config/config.yaml")
     overrides = ([f"rung={args.rung}"] if args.rung else []) + list(args.overrides) + _limit_overrides(args)
     cfg = load_campaign(path, overrides, root=root)
     results = Path(cfg.get("results_dir", "results"))
@@ -234,8 +278,15 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("check-config", help="validate a campaign or scene YAML file",
                        description="Validate FILE (config/config.yaml or config/scenes/<scene>.yaml) "
                                    "against its JSON schema and cross-field rules; exit 2 with a message "
-                                   "naming key, value and allowed range if it is invalid.")
+                                   "naming key, value and allowed range if it is invalid. A campaign: "
+                                   "every case, as Snakemake validates it (sizes, and all cases together "
+                                   "against --max-cpu-hours). A scene file: its case with the checks "
+                                   "`granflow render` runs (size limits, geometry, time step) at --rung, "
+                                   "else at every rung (refused if no rung can render it; the rungs that "
+                                   "cannot are listed with the reason).")
     p.add_argument("file", help="campaign or scene YAML file")
+    p.add_argument("--rung", help="a campaign: its rung (default: the file's); a scene file: the one rung "
+                                  "to check, refused as render refuses it (default: every rung)")
     _add_set(p)
     _add_limits(p)
     p.set_defaults(func=cmd_check_config)
@@ -264,7 +315,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Run the rendered case in CASE_DIR under mpirun, in segments with "
                                    "restart files; a rerun resumes after the last complete segment.")
     p.add_argument("case_dir")
-    p.add_argument("--np", type=int, default=1, help="MPI ranks (default 1)")
+    p.add_argument("--np", type=int, default=1,
+                   help="MPI ranks (default 1; at most one per 100 particles of the case)")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser(
@@ -277,12 +329,15 @@ def build_parser() -> argparse.ArgumentParser:
                     "Nothing is written and LAMMPS is not needed.",
         epilog="examples:\n"
                "  granflow plan --rung study\n"
-               "  granflow plan --rung paper --max-ranks 128 --json > plan.json\n"
-               "  granflow plan --set scenes.channel.sweep.W=[60,100] --rung paper\n\n"
+               "  granflow plan --rung paper --max-ranks 128 --max-cpu-hours 5000 --json > plan.json\n"
+               "  granflow plan --set scenes.channel.sweep.W=[60,100] --rung paper --max-cpu-hours 5000\n\n"
                "Numbers are upper bounds: flow until t_flow_max, every averaging segment.\n"
+               "A case, or the campaign's cases together, above --max-cpu-hours (default a week of\n"
+               "this machine's cores, 7 x 24 x os.cpu_count()) is refused, as by check-config and snakemake.\n"
                "granflow.resources holds the constants and their sources.",
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--config", help="campaign YAML (default config/config.yaml)")
+    p.add_argument("--config", help="campaign YAML (default config/config.yaml); its scene files and a relative "
+                                    "results_dir are found from the working directory, as for check-config")
     p.add_argument("--rung", help="fidelity rung (default: the campaign's), e.g. study or paper")
     p.add_argument("--max-ranks", type=int, default=None, metavar="N",
                    help="most MPI ranks per case (default 64)")

@@ -4,13 +4,16 @@ Two kinds of file are validated against JSON schemas in ``config/schema``:
 the campaign (``config/config.yaml``) and the scene files
 (``config/scenes/<scene>.yaml``). Every refusal is a :class:`ConfigError` whose
 message names the dotted key, the offending value and the allowed range, so a
-user can fix the file without reading the schema.
+user can fix the file without reading the schema. Every YAML text is read by :func:`yaml_load`
+with bounded work (:data:`MAX_DOCUMENT_BYTES`, :data:`MAX_NODES` with aliases expanded,
+:data:`MAX_DEPTH`), refusing a key given twice and a file that is not UTF-8.
 """
 from __future__ import annotations
 
 import copy
 import functools
 import math
+import os
 import re
 from pathlib import Path
 from typing import Any, Iterable
@@ -26,8 +29,69 @@ SCHEMA_DIR = PROJECT_ROOT / "config" / "schema"
 RUNGS = ("smoke", "demo", "study", "paper", "validation")
 
 
+#: largest YAML document read, in bytes (the largest shipped file, a scene schema, has 10 kB; PyYAML's
+#: pure-Python reader, needed for the checks below, takes about 2 s for this many on one core)
+MAX_DOCUMENT_BYTES = 256 * 1024
+#: most nodes (mappings, lists, scalars, keys) a document may hold with every alias expanded: an alias
+#: counts as many nodes as the value it repeats, so nested anchors (an "alias bomb") cannot make the
+#: checks and the schema validation that walk the data do exponential work (shipped files: at most 918)
+MAX_NODES = 100_000
+#: deepest nesting of mappings and lists, aliases expanded (shipped files: at most 11)
+MAX_DEPTH = 32
+
+
 class _Loader(yaml.SafeLoader):
-    """Safe loader that reads ``1e5`` and ``1.0e5`` as floats (YAML 1.2), not strings."""
+    """Safe loader that reads ``1e5`` and ``1.0e5`` as floats (YAML 1.2), not strings, and bounds
+    its work: while composing it refuses a document nested deeper than :data:`MAX_DEPTH`, one
+    that expands through its aliases to more than :data:`MAX_NODES` nodes (each node's expanded
+    size is summed from its children's, so a bomb is refused at the first value that exceeds the
+    bound, without expanding it), and an alias inside the value it names (a cycle)."""
+
+    def __init__(self, stream, source: str = "YAML"):
+        super().__init__(stream)
+        self.source = source
+        self._nesting = 0
+        #: id(node) -> (expanded nodes, expanded depth) of every completed node
+        self._extent: dict[int, tuple[int, int]] = {}
+
+    def compose_node(self, parent, index):
+        event = self.peek_event()
+        alias = event.anchor if isinstance(event, yaml.AliasEvent) else None
+        mark = event.start_mark
+        where = f"{self.source}: line {mark.line + 1}, column {mark.column + 1}"
+        self._nesting += 1
+        try:
+            if self._nesting > MAX_DEPTH:
+                raise ConfigError(f"{where}: the document is nested more than {MAX_DEPTH} levels deep: "
+                                  f"allowed at most {MAX_DEPTH} levels of mappings and lists")
+            node = super().compose_node(parent, index)
+        finally:
+            self._nesting -= 1
+        if id(node) in self._extent:
+            return node
+        if alias:
+            raise ConfigError(f"{where}: the alias *{alias} is inside the value its anchor names "
+                              f"(a value that contains itself): allowed aliases of complete values only")
+        children = (node.value if isinstance(node, yaml.SequenceNode) else
+                    [n for pair in node.value for n in pair] if isinstance(node, yaml.MappingNode) else [])
+        extents = [self._extent[id(c)] for c in children]
+        nodes = 1 + sum(n for n, _ in extents)
+        depth = 1 + max((d for _, d in extents), default=0)
+        named = self.anchor_of(node) if nodes > MAX_NODES or depth > MAX_DEPTH else None
+        line = (f"{self.source}: the value {'&' + named + ' ' if named else ''}at line {node.start_mark.line + 1}, "
+                f"column {node.start_mark.column + 1}")
+        if nodes > MAX_NODES:
+            raise ConfigError(f"{line} holds {nodes:,} nodes, an alias counting as many as the value it repeats: "
+                              f"allowed at most {MAX_NODES:,} nodes in a document (use fewer aliases or values)")
+        if depth > MAX_DEPTH:
+            raise ConfigError(f"{line} is nested {depth} levels deep with its aliases expanded: allowed at most "
+                              f"{MAX_DEPTH} levels of mappings and lists")
+        self._extent[id(node)] = (nodes, depth)
+        return node
+
+    def anchor_of(self, node) -> str | None:
+        """The anchor naming ``node`` (for messages)."""
+        return next((name for name, n in self.anchors.items() if n is node), None)
 
 
 _Loader.add_implicit_resolver(
@@ -63,15 +127,21 @@ def _yaml12(value: str):
     return int(value, 10) if re.fullmatch(r"[-+]?0[0-9]+", value) else value
 
 
-def _check_unambiguous(node, path: list, source: str, key: bool = False) -> None:
-    """Refuse a plain scalar that YAML 1.1 and 1.2 read differently (see :data:`_AMBIGUOUS`)."""
+def _check_unambiguous(node, path: list, source: str, key: bool = False, loader: "_Loader | None" = None) -> None:
+    """Refuse a plain scalar that YAML 1.1 and 1.2 read differently (see :data:`_AMBIGUOUS`), and a
+    key given twice in one mapping (YAML would keep the last without a word; ``loader`` reads the
+    keys, so ``1`` and ``1.0``, or ``a`` and ``"a"``, are the same key). The walk visits a node
+    as often as aliases repeat it: :class:`_Loader` has bounded that at :data:`MAX_NODES`."""
     if isinstance(node, yaml.MappingNode):
+        if loader is not None:
+            _refuse_duplicate_keys(node, path, source, loader)
         for k, value in node.value:
-            _check_unambiguous(k, path, source, key=True)
-            _check_unambiguous(value, path + [k.value if isinstance(k, yaml.ScalarNode) else "?"], source)
+            _check_unambiguous(k, path, source, key=True, loader=loader)
+            _check_unambiguous(value, path + [k.value if isinstance(k, yaml.ScalarNode) else "?"], source,
+                               loader=loader)
     elif isinstance(node, yaml.SequenceNode):
         for i, item in enumerate(node.value):
-            _check_unambiguous(item, path + [i], source)
+            _check_unambiguous(item, path + [i], source, loader=loader)
     elif (isinstance(node, yaml.ScalarNode) and node.style is None and len(node.value) > MAX_NUMBER_CHARS
           and node.tag in ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")):
         what = f"the key {node.value[:20]}..." if key else f"{_dotted(path) if path else 'the value'} = {node.value[:20]}..."
@@ -90,19 +160,70 @@ def _check_unambiguous(node, path: list, source: str, key: bool = False) -> None
                 f"allowed: {fix}")
 
 
+def _refuse_duplicate_keys(node: yaml.MappingNode, path: list, source: str, loader: "_Loader") -> None:
+    """Refuse a mapping that gives one key twice, naming the key and both lines (a ``<<`` merge
+    key is not compared: the keys written beside it override the merged ones on purpose)."""
+    seen = {}
+    for k, _ in node.value:
+        if not isinstance(k, yaml.ScalarNode) or k.tag == "tag:yaml.org,2002:merge":
+            continue
+        try:
+            key = loader.construct_object(k)
+            hash(key)
+        except (yaml.YAMLError, TypeError):
+            continue  # the constructor refuses it with its own message
+        if key in seen:
+            where = f" of {_dotted(path)}" if path else " at the top level"
+            first, second = seen[key].start_mark, k.start_mark
+            lines = (f"on line {first.line + 1} and line {second.line + 1}" if first.line != second.line else
+                     f"on line {first.line + 1} (columns {first.column + 1} and {second.column + 1})")
+            raise ConfigError(
+                f"{source}: the key {k.value}{where} appears twice, {lines}: allowed each key once in a "
+                f"mapping (YAML would keep the last without a word): remove one")
+        seen[key] = k
+
+
 def yaml_load(text: str, source: str = "YAML", path: Iterable = ()):
-    """Parse YAML text with :class:`_Loader`, refusing the YAML 1.1 forms that 1.2 reads otherwise
-    (``on``/``off``/``yes``/``no``, ``0123``, ``1:30``, ``1_000``) with a :class:`ConfigError`
-    naming the key (under ``path``, e.g. the key of a ``--set``), its line and the unambiguous spelling."""
-    loader = _Loader(text)
+    """Parse YAML text with :class:`_Loader`, refusing with a :class:`ConfigError` the YAML 1.1
+    forms that 1.2 reads otherwise (``on``/``off``/``yes``/``no``, ``0123``, ``1:30``, ``1_000``,
+    naming the key under ``path``, e.g. the key of a ``--set``, its line and the unambiguous
+    spelling), a key given twice in one mapping (naming it and both lines), and a document over
+    the bounds of work: :data:`MAX_DOCUMENT_BYTES` characters, :data:`MAX_NODES` nodes with its
+    aliases expanded, :data:`MAX_DEPTH` levels."""
+    if len(text) > MAX_DOCUMENT_BYTES:
+        raise ConfigError(f"{source}: {len(text):,} characters: allowed a document of at most "
+                          f"{MAX_DOCUMENT_BYTES:,} characters")
+    loader = _Loader(text, source)
     try:
         node = loader.get_single_node()
         if node is None:
             return None
-        _check_unambiguous(node, list(path), source)
+        _check_unambiguous(node, list(path), source, loader=loader)
         return loader.construct_document(node)
     finally:
         loader.dispose()
+
+
+def check_extent(data, source: str = "config") -> None:
+    """Refuse data (e.g. Snakemake's ``config``, merged from files and ``--config`` values that
+    Snakemake parsed itself) holding more than :data:`MAX_NODES` values or nested deeper than
+    :data:`MAX_DEPTH`, counting a value as often as it is referred to: the same bounds as
+    :func:`yaml_load`, so the validation that walks it does bounded work. Stops at the bound."""
+    count = 0
+    stack = [(data, 1)]
+    while stack:
+        value, depth = stack.pop()
+        count += 1
+        if count > MAX_NODES:
+            raise ConfigError(f"{source}: more than {MAX_NODES:,} values, counting each as often as an alias "
+                              f"repeats it: allowed at most {MAX_NODES:,}")
+        if depth > MAX_DEPTH:
+            raise ConfigError(f"{source}: nested more than {MAX_DEPTH} levels deep: allowed at most {MAX_DEPTH} "
+                              f"levels of mappings and lists")
+        if isinstance(value, dict):
+            stack.extend((v, depth + 1) for pair in value.items() for v in pair)
+        elif isinstance(value, (list, tuple)):
+            stack.extend((v, depth + 1) for v in value)
 
 
 #: keys that make a file a template Snakemake evaluates as Python (YTE) when it loads it
@@ -125,12 +246,33 @@ class ConfigError(ValueError):
     """Invalid configuration; the message names key, value and allowed range."""
 
 
+def _read_utf8(path: Path) -> str:
+    """The text of a config file: at most :data:`MAX_DOCUMENT_BYTES` bytes of UTF-8, else a
+    :class:`ConfigError` naming the size, or the byte offset and line of the first invalid byte."""
+    size = path.stat().st_size
+    if size > MAX_DOCUMENT_BYTES:
+        raise ConfigError(f"{path}: {size:,} bytes: allowed a config file of at most {MAX_DOCUMENT_BYTES:,} bytes")
+    raw = path.read_bytes()[:MAX_DOCUMENT_BYTES + 1]  # a file that grew since stat() is cut, then refused
+    if len(raw) > MAX_DOCUMENT_BYTES:
+        raise ConfigError(f"{path}: more than {MAX_DOCUMENT_BYTES:,} bytes: allowed a config file of at most "
+                          f"{MAX_DOCUMENT_BYTES:,} bytes")
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise ConfigError(f"{path}: byte {raw[exc.start:exc.start + 1].hex(' ')} at offset {exc.start} "
+                          f"(line {line}) is not UTF-8 ({exc.reason}): allowed a file in UTF-8 (ASCII "
+                          f"is UTF-8); save it as UTF-8") from None
+
+
 def load_yaml(path: str | Path) -> dict:
+    """A campaign, scene or schema file as a dict, read by :func:`yaml_load` with its bounds and
+    refusals; every problem is a :class:`ConfigError` naming the file."""
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"config file not found: {path}")
     try:
-        data = yaml_load(path.read_text(), str(path))
+        data = yaml_load(_read_utf8(path), str(path))
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML: {exc}") from None
     if not isinstance(data, dict):
@@ -150,16 +292,53 @@ def _schema(name: str) -> dict:
 
 
 # --------------------------------------------------------------------- overrides
+def _split_key(text: str) -> tuple[list[str], str]:
+    """``a."b.c".d=VALUE`` -> ``(['a', 'b.c', 'd'], 'VALUE')``: the key's parts split at dots,
+    a part in double or single quotes taken whole (its dots are part of the name), and the text
+    after the first ``=`` outside quotes. Empty unquoted parts are dropped, as ``a..b`` always was."""
+    text = text.lstrip()
+    parts, part, quoted, i = [], "", False, 0
+    while i < len(text):
+        ch = text[i]
+        if ch in "\"'" and not part and not quoted:
+            end = text.find(ch, i + 1)
+            if end < 0:
+                raise ConfigError(f"--set {text!r}: the quote {ch} at character {i + 1} is not closed: allowed a "
+                                  f"name in quotes, e.g. particles.mixtures.\"mono1.5\".diameters=[1.5e-3]")
+            part, quoted, i = text[i + 1:end], True, end + 1
+            if i < len(text) and text[i] not in ".=":
+                raise ConfigError(f"--set {text!r}: {text[i]!r} follows the quoted name {part!r}: allowed a "
+                                  f"quoted name as a whole part of the key, between dots")
+            continue
+        if ch in ".=":
+            if ch == "=" and not quoted:
+                part = part.rstrip()
+            if part or quoted:
+                parts.append(part)
+            part, quoted = "", False
+            if ch == "=":
+                return parts, text[i + 1:]
+        else:
+            part += ch
+        i += 1
+    raise ConfigError(f"--set {text!r}: expected KEY=VALUE with a dotted KEY, e.g. case.phi_mean=0.61 "
+                      f"(a name with dots in quotes: particles.mixtures.\"mono1.5\".diameters=[1.5e-3])")
+
+
+def key_text(parts: Iterable) -> str:
+    """A key path as ``--set`` spells it: dotted, a name holding a dot in double quotes."""
+    return ".".join(f'"{p}"' if "." in str(p) or not str(p) else str(p) for p in parts)
+
+
 def parse_override(text: str) -> tuple[list[str], Any]:
     """Split ``a.b.c=VALUE`` into a key path and a YAML-parsed value.
 
-    ``VALUE`` is read as YAML, so ``0.6`` is a number, ``[20, 30]`` a list and
-    ``true`` a boolean; anything else stays a string and meets the schema's type.
+    A name that holds a dot is written in quotes, ``particles.mixtures."mono1.5".diameters=...``
+    (in a shell, the whole argument in single quotes). ``VALUE`` is read as YAML, so ``0.6`` is
+    a number, ``[20, 30]`` a list and ``true`` a boolean; anything else stays a string and meets
+    the schema's type.
     """
-    if "=" not in text:
-        raise ConfigError(f"--set {text!r}: expected KEY=VALUE with a dotted KEY, e.g. case.phi_mean=0.61")
-    key, raw = text.split("=", 1)
-    parts = [p for p in key.strip().split(".") if p]
+    parts, raw = _split_key(text)
     if not parts:
         raise ConfigError(f"--set {text!r}: empty key")
     try:
@@ -181,10 +360,10 @@ def apply_overrides(data: dict, overrides: Iterable[str]) -> dict:
         node = out
         for i, p in enumerate(parts[:-1]):
             if not isinstance(node, dict):
-                raise ConfigError(f"--set {text}: {'.'.join(parts[:i])} is not a mapping")
+                raise ConfigError(f"--set {text}: {key_text(parts[:i])} is not a mapping")
             node = node.setdefault(p, {})
         if not isinstance(node, dict):
-            raise ConfigError(f"--set {text}: {'.'.join(parts[:-1])} is not a mapping")
+            raise ConfigError(f"--set {text}: {key_text(parts[:-1])} is not a mapping")
         node[parts[-1]] = value
     return out
 
@@ -311,12 +490,17 @@ def validate_campaign_scenes(data: dict, root: Path, source: str = "config") -> 
     """Validate a campaign dict's scenes (the whole campaign: :func:`granflow.campaign.validate_campaign`).
 
     Scene file paths are relative to ``root``. Every sweep point is checked by its
-    scene (schema bounds of the swept key, then the scene's own feasibility checks).
-    Returns a copy with each enabled scene's validated content under ``scenes.<name>.scene``.
+    scene (schema bounds of the swept key, then the scene's own feasibility checks) and
+    against the size limits (:func:`check_size`), and all points together against
+    ``max_cpu_hours`` (:func:`check_campaign_cpu_hours`; the cost study's runs, a target of
+    their own, are checked one by one only). Returns a copy with each enabled scene's
+    validated content under ``scenes.<name>.scene``.
     """
     data = copy.deepcopy(data)
     path = source
     validate(data, "config", source=source)
+    check_results_dir(data.get("results_dir", "results"), root, source)
+    estimates = {}
     for name, sc in data.get("scenes", {}).items():
         require(name in registry.names(), f"{path}: scenes.{name} is not allowed: allowed one of "
                                          f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
@@ -331,13 +515,29 @@ def validate_campaign_scenes(data: dict, root: Path, source: str = "config") -> 
         rung = data["rung"]
         require(rung in scene["rungs"],
                f"{path}: rung = {rung!r} is not defined in {scene_path}: allowed {', '.join(scene['rungs'])}")
-        _check_sweep(name, sc.get("sweep") or {}, scene, rung, path, data)
+        estimates[name] = _check_sweep(name, sc.get("sweep") or {}, scene, rung, path, data)
         sc["scene"] = scene
+    check_campaign_cpu_hours(estimates, data["rung"], data, path)
     return data
 
 
-def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str, limits: dict | None = None) -> None:
-    """Every value of the sweep within the scene schema's bounds of its case key, every point feasible."""
+def check_results_dir(value: str, root: Path, source: str = "config") -> None:
+    """Refuse a relative ``results_dir`` that leads out of the project root ``root`` (``..``,
+    ``../x``, ``a/../../b``); an absolute path is the way to write elsewhere. Judged on the
+    path as written, so a ``results`` symlink to a scratch disk stays allowed."""
+    if Path(value).is_absolute():
+        return
+    norm = os.path.normpath(value)
+    if norm == os.pardir or norm.startswith(os.pardir + os.sep):
+        where = os.path.normpath(os.path.join(Path(root).absolute(), value))
+        raise ConfigError(f"{source}: results_dir = {value!r} resolves to {where}, outside the project root "
+                          f"{Path(root).absolute()}: allowed a relative path that stays inside the project; "
+                          f"give an absolute path to write elsewhere")
+
+
+def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str, limits: dict | None = None) -> list:
+    """Every value of the sweep within the scene schema's bounds of its case key, every point feasible
+    and within the size limits (:func:`check_size`); returns the points' estimates."""
     sc = registry.get(name)
     axes = {a.key for a in sc.sweep}
     case_schema = load_schema(name)["properties"]["case"]["properties"]
@@ -367,52 +567,116 @@ def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str, limi
                 require(math.isclose(back, float(value), rel_tol=1e-12, abs_tol=1e-300),
                         f"{path}: scenes.{name}.sweep.{axis.key} = {value!r} has more digits than its result "
                         f"directory {label} keeps (it would run as {back:g}): allowed at most 6 significant digits")
+    estimates = []
     for point in sc.sweep_points(scene, sweep, rung):
         sc.check_case(scene, rung, point, path)
         what = ", ".join(f"{k} = {v}" for k, v in point.items())
-        check_size(name, scene, rung, point, limits, path, f"scenes.{name} case {what} (rung {rung})")
+        estimates.append(check_size(name, scene, rung, point, limits, path, f"scenes.{name} case {what} (rung {rung})"))
+    return estimates
 
 
-def size_limits(limits: dict | None = None) -> tuple[int, int]:
-    """``(max_particles, memory budget in MB)`` of one case from ``limits`` (the campaign dict, whose
-    ``max_particles``/``memory_mb`` the CLI's ``--max-particles``/``--memory-mb`` set), else 2 million
-    particles and this machine's memory."""
+#: the campaign keys that bound one case (and the campaign) before anything is built; the CLI's
+#: ``--max-particles``, ``--memory-mb`` and ``--max-cpu-hours`` set them, Snakemake's ``--config KEY=V``
+LIMIT_KEYS = ("max_particles", "memory_mb", "max_cpu_hours")
+
+#: how to raise each limit, for the refusals
+_RAISE = {key: (f"raise it with --{key.replace('_', '-')} {arg} (granflow check-config, plan, render), "
+                f"snakemake --config {key}={arg}, or {key} in the campaign file")
+          for key, arg in (("max_particles", "N"), ("memory_mb", "MB"), ("max_cpu_hours", "H"))}
+
+
+def check_limits(limits: dict, source: str = "command line") -> dict:
+    """Refuse limits given on the command line without a campaign file (``granflow render``,
+    ``check-config`` on a scene file) that the campaign schema would refuse, naming the option
+    (``--max-cpu-hours``): the same bounds as in a campaign file. Returns ``limits``."""
+    props = load_schema("config")["properties"]
+    option = {key: "--" + key.replace("_", "-") for key in LIMIT_KEYS}
+    schema = {"type": "object", "properties": {option[k]: props[k] for k in LIMIT_KEYS}}
+    given = {option.get(k, k): v for k, v in limits.items()}
+    for err in sorted(Validator(schema).iter_errors(given), key=lambda e: list(map(str, e.absolute_path))):
+        raise ConfigError(_format_error(err, source))
+    return limits
+
+
+def size_limits(limits: dict | None = None) -> tuple[int, int, float]:
+    """``(max_particles, memory budget in MB, max_cpu_hours)`` of one case from ``limits`` (the
+    campaign dict, whose ``max_particles``/``memory_mb``/``max_cpu_hours`` the CLI's
+    ``--max-particles``/``--memory-mb``/``--max-cpu-hours`` set), else 2 million particles, this
+    machine's memory and a week of this machine's cores
+    (:func:`granflow.resources.default_max_cpu_hours`)."""
     limits = limits or {}
     max_particles = int(limits.get("max_particles") or resources.DEFAULT_MAX_PARTICLES)
     memory = int(limits.get("memory_mb") or resources.machine_memory_mb() or 0)
-    return max_particles, memory
+    cpu_hours = float(limits.get("max_cpu_hours") or resources.default_max_cpu_hours())
+    return max_particles, memory, cpu_hours
+
+
+def _cpu_hour_limit_text(limits: dict | None) -> str:
+    """Where the CPU-hour limit comes from, for messages."""
+    if (limits or {}).get("max_cpu_hours"):
+        return f"max_cpu_hours = {limits['max_cpu_hours']:g}"
+    return resources.default_max_cpu_hours_text()
+
+
+def _hours(h: float) -> str:
+    return f"{h:,.0f}" if h >= 100 else f"{h:.3g}"
 
 
 def check_size(name: str, scene: dict, rung: str, case: dict | None, limits: dict | None,
-               source: str, label: str) -> int:
-    """Refuse a case over the size limits before anything is built; return its particle estimate.
+               source: str, label: str) -> "resources.Estimate":
+    """Refuse a case over the size limits before anything is built; return its estimate.
 
-    ``label`` names the case in the message (e.g. ``scenes.silo.sweep point R = 6``). The estimate
-    is the scene's :meth:`~granflow.registry.Scene.particle_count` (a formula, no arrays); memory
-    is :func:`granflow.resources.memory_mb`; CPU-hours come from the case's workload at the
-    reference rate (named when the memory budget refuses a case).
+    ``label`` names the case in the message (e.g. ``scenes.silo.sweep point R = 6``). In order:
+    the particles, the scene's :meth:`~granflow.registry.Scene.particle_count` (a formula, no
+    arrays; it also refuses a geometry that does not fit); the memory,
+    :func:`granflow.resources.memory_mb`; then the deck's parameters are derived (their preflight:
+    time step, feasibility) and the CPU-hours priced by :func:`granflow.resources.estimate` from
+    the case's workload at the reference rate, as ``granflow plan`` prices a scene without
+    measured runs (a fixed rate, so whether a config passes does not change as runs finish).
+    Returns that :class:`granflow.resources.Estimate` (``particles``, ``cpu_hours``, ...).
     """
     sc = registry.get(name)
-    max_particles, budget = size_limits(limits)
+    max_particles, budget, max_cpu_hours = size_limits(limits)
     try:
         n = sc.particle_count(scene, rung, case)
     except ValueError as exc:  # PreflightError (time step, geometry) or a scene's own refusal
         raise ConfigError(f"{source}: {label} is not allowed: {exc}") from None
     mem = resources.memory_mb(n)
-    raise_it = ("raise it with --max-particles N (granflow check-config, plan, render), "
-                "snakemake --config max_particles=N, or max_particles in the campaign file")
     require(n <= max_particles,
             f"{source}: {label} is too large: estimated {n:,} particles (about {mem / 1024:.3g} GB of memory): "
-            f"allowed at most {max_particles:,} particles; {raise_it}")
+            f"allowed at most {max_particles:,} particles; {_RAISE['max_particles']}")
+    try:
+        est = resources.estimate(sc.workload(sc.parameters(scene, rung, case)[1]["record"]))
+    except ValueError as exc:  # the deck's preflight: time step, feasibility
+        raise ConfigError(f"{source}: {label} is not allowed: {exc}") from None
     if budget and mem > budget:
-        work = sc.workload(sc.parameters(scene, rung, case)[1]["record"])
-        est = resources.estimate(work)
         raise ConfigError(
             f"{source}: {label} is too large: estimated {n:,} particles, {mem:,} MB of memory and "
             f"{est.cpu_hours:.3g} CPU-hours at {est.rate / 1e6:.3g} Matom-step per CPU-second: allowed at most "
             f"{budget:,} MB (this machine's memory unless --memory-mb, snakemake --config memory_mb=MB or memory_mb in the "
             f"campaign file says otherwise)")
-    return n
+    require(est.cpu_hours <= max_cpu_hours,
+            f"{source}: {label} is too large: estimated {_hours(est.cpu_hours)} CPU-hours ({est.particles:,} particles, "
+            f"{est.atom_steps:.3g} atom-steps at {est.rate / 1e6:.3g} Matom-step per CPU-second, the reference rate "
+            f"for its pair style that granflow plan uses without measured runs): allowed at most {_hours(max_cpu_hours)} CPU-hours "
+            f"({_cpu_hour_limit_text(limits)}); {_RAISE['max_cpu_hours']}")
+    return est
+
+
+def check_campaign_cpu_hours(estimates: dict[str, list], rung: str, limits: dict | None, source: str) -> float:
+    """Refuse a campaign whose cases (``{scene: [Estimate, ...]}``, from :func:`check_size`)
+    together are estimated above ``max_cpu_hours``; return the total CPU-hours."""
+    _, _, max_cpu_hours = size_limits(limits)
+    per_scene = {name: sum(e.cpu_hours for e in ests) for name, ests in estimates.items()}
+    total = sum(per_scene.values())
+    cases = sum(len(ests) for ests in estimates.values())
+    parts = ", ".join(f"{name} {_hours(h)}" for name, h in sorted(per_scene.items(), key=lambda kv: -kv[1]))
+    require(total <= max_cpu_hours,
+            f"{source}: the campaign at rung {rung} is too large: its {cases} cases are estimated at "
+            f"{_hours(total)} CPU-hours together ({parts}; at the reference rate, as granflow plan prices a "
+            f"scene without measured runs): allowed at most {_hours(max_cpu_hours)} CPU-hours "
+            f"({_cpu_hour_limit_text(limits)}); {_RAISE['max_cpu_hours']}")
+    return total
 
 
 def check_rung(scene: dict, rung: str, source: str = "--rung") -> dict:

@@ -183,6 +183,7 @@ GENERIC_STATUSES: dict[str, str] = {
     "unstable": "a guard stopped LAMMPS (overlap, speed, lost atoms, dangerous neighbour builds)",
     "completed": "a fixed schedule ran to its end (scenes without a steady-state test); the analysis may relabel it",
     "unknown": "no flow segment ran, so there is nothing to judge",
+    "interrupted": "SIGINT or SIGTERM stopped the run; a rerun resumes from the last restart",
 }
 
 

@@ -21,6 +21,12 @@ prices a workload:
 - **memory** of the job: the runner process, one LAMMPS base per rank and a
   per-particle term, times :data:`MEMORY_MARGIN`.
 
+The limits every command checks before building anything
+(:func:`granflow.config.check_size`) are defined here too: :data:`DEFAULT_MAX_PARTICLES`
+per case, this machine's memory, and :func:`default_max_cpu_hours` (a week of this
+machine's cores) per case and for a campaign's cases together, priced by :func:`estimate`
+at the reference rate.
+
 Workloads are upper bounds: the flow stage runs until ``t_flow_max`` and every
 averaging segment runs, although the runner stops earlier when the flow is steady,
 jammed, arrested, clogged or emptied.
@@ -244,6 +250,28 @@ def machine_memory_mb() -> int:
 #: says otherwise: ~7x the largest paper-rung case (silo, 278k), ~4.5 GB by the memory model above
 DEFAULT_MAX_PARTICLES = 2_000_000
 
+#: days of all this machine's cores that one case, and one campaign's cases together, may cost
+#: unless the campaign's ``max_cpu_hours`` or ``--max-cpu-hours`` says otherwise: a week
+DEFAULT_CPU_DAYS = 7
+
+
+def machine_cores() -> int:
+    """Cores of this machine as Python sees them (:func:`os.cpu_count`, 1 if unknown)."""
+    return os.cpu_count() or 1
+
+
+def default_max_cpu_hours() -> float:
+    """Most estimated CPU-hours of one case and of a campaign when nothing says otherwise: a week
+    of this machine's cores, ``7 x 24 x os.cpu_count()`` (336 on 2 cores)."""
+    return 24.0 * DEFAULT_CPU_DAYS * machine_cores()
+
+
+def default_max_cpu_hours_text() -> str:
+    """Where the default CPU-hour limit comes from, for messages."""
+    n = machine_cores()
+    return (f"the default: a week of this machine's {n} core{'s' if n != 1 else ''}, "
+            f"{DEFAULT_CPU_DAYS} x 24 x {n} = {default_max_cpu_hours():,.0f}")
+
 
 def estimate(workload: Workload, ranks: int | None = None, calibration: Calibration | None = None,
              max_ranks: int | None = None) -> Estimate:
@@ -297,7 +325,7 @@ def simulate_resources(params_path: str | Path, max_ranks: int | None = None) ->
 
 # -------------------------------------------------------------------------- plan
 #: statuses of ``run/status.json`` that are not a finished run
-UNFINISHED = ("", "unknown")
+UNFINISHED = ("", "unknown", "interrupted")
 
 
 def case_state(case_dir: str | Path, record: dict | None = None) -> dict:
@@ -434,4 +462,5 @@ def format_plan(plan: dict) -> str:
 
 __all__ = ["Stage", "Workload", "Rate", "Calibration", "Estimate", "calibrate", "measured_runs", "estimate",
            "suggested_ranks", "simulate_resources", "pair_factor", "case_state",
-           "plan_campaign", "format_plan", "REFERENCE_RATE", "PARTICLES_PER_RANK", "DEFAULT_MAX_RANKS"]
+           "plan_campaign", "format_plan", "REFERENCE_RATE", "PARTICLES_PER_RANK", "DEFAULT_MAX_RANKS",
+           "DEFAULT_MAX_PARTICLES", "default_max_cpu_hours"]

@@ -13,7 +13,8 @@ Every segment ends with a restart file, written under a temporary name and
 renamed only when LAMMPS finished cleanly, so a killed run resumes from the last
 complete segment and never mistakes a partial file for a finished one. Each
 segment keeps its full LAMMPS log in ``run/logs``. A LAMMPS ``ERROR`` line (or our
-own ``GRANFLOW_ERROR`` line) becomes a :class:`RunError` quoting that line.
+own ``GRANFLOW_ERROR`` line) becomes a :class:`RunError` quoting that line; SIGINT or SIGTERM
+ends a run ``interrupted`` (:mod:`granflow.interrupts`); :mod:`granflow.caselock` refuses a second run.
 MPI ranks, not OpenMP threads, parallelise a run: measured faster for
 ``gran/hooke/history`` on 2 cores (8.8 vs 6.0 Matom-step/s for a 10k bed).
 Small cases of a campaign are better run one rank each, side by side (see
@@ -27,7 +28,6 @@ import re
 import resource
 import shlex
 import shutil
-import signal
 import socket
 import subprocess
 import sys
@@ -39,6 +39,9 @@ import numpy as np
 import pandas as pd
 
 from . import registry
+from .caselock import LOCK_NAME, case_lock
+from .interrupts import (INTERRUPTING, Interrupted, as_interrupted, interrupted_reason, launch_signal,
+                         sigterm_interrupts, stop)
 from .progress import SegmentProgress, Target, progress_interval
 from .provenance import git_state
 
@@ -297,6 +300,7 @@ class CaseRunner:
         self.case_dir = Path(case_dir).resolve()
         self.run_dir = self.case_dir / "run"
         self.log_dir = self.run_dir / "logs"
+        self.running: str | None = None  # the segment LAMMPS runs now
         self.nprocs = max(1, int(nprocs))
         self.tools = tools or Tools.default()
         #: argv before ``lmp``; built (and a bad launcher refused) before anything runs
@@ -317,7 +321,10 @@ class CaseRunner:
         current = (self.case_dir / "params.json").read_text()
         if self.run_dir.exists() and stamp.exists() and stamp.read_text() != current:
             aside = self.case_dir / f"run.stale-{time.strftime('%Y%m%d-%H%M%S')}"
-            self.run_dir.rename(aside)
+            aside.mkdir()
+            for entry in self.run_dir.iterdir():  # all but the lock this run holds
+                if entry.name != LOCK_NAME:
+                    entry.rename(aside / entry.name)
             log(f"parameters changed since the last run: kept the old run as {aside.name}, starting afresh")
         self.run_dir.mkdir(parents=True, exist_ok=True)
         stamp.write_text(current)
@@ -365,6 +372,9 @@ class CaseRunner:
         text = (log_path.read_text(errors="replace") if log_path.exists() else "") + "\n" + \
             screen_path.read_text(errors="replace")
         bad = error_line(text)
+        signum = launch_signal(proc.returncode, text) if proc.returncode != 0 else None
+        if signum in INTERRUPTING and not bad:
+            raise Interrupted(signum, "LAMMPS")
         if proc.returncode != 0 or bad:
             reason = bad or f"LAMMPS exited with status {proc.returncode} and no ERROR line"
             message = f"{self.case_dir.name}: segment {name} failed: {reason} (full log: {log_path})"
@@ -411,8 +421,10 @@ class CaseRunner:
         if restart_in is not None:
             variables["restart_in"] = restart_in.name
         variables.update(extra or {})
+        self.running = name
         self._lammps(deck, name, variables)
         tmp.rename(out)
+        self.running = None
         return out
 
     def thermo(self, prefix: str, upto: int | None = None) -> pd.DataFrame:
@@ -438,7 +450,8 @@ class CaseRunner:
 
         ``status`` is ``steady`` (averaged), or a named reason without averaging:
         ``jammed``, ``no_steady_state`` or ``unstable`` (a guard stopped LAMMPS,
-        or the log shows dangerous neighbour builds). Other LAMMPS errors raise
+        or the log shows dangerous neighbour builds), or ``interrupted`` (SIGINT, SIGTERM;
+        then :class:`~granflow.interrupts.Interrupted` is raised). Other LAMMPS errors raise
         :class:`RunError` and the rule fails.
         """
         from postproc.steady import detect_steady_state
@@ -491,7 +504,20 @@ class CaseRunner:
         except UnstableRun as exc:
             unstable = exc.reason
             log(f"stopped by a guard: {exc.reason}")
+        except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, or a LAMMPS launch ended by one of them
+            self._interrupted(steady, as_interrupted(exc))
+            raise as_interrupted(exc) from None
         return self._conclude(steady, k, n_avg, unstable)
+
+    def _interrupted(self, steady, exc: Interrupted) -> None:
+        """Status ``interrupted`` with the segments complete so far, and no ``thermo.csv``: the
+        workflow's simulate job (outputs ``status.json``, ``thermo.csv``) stays unfinished."""
+        done = {stage: len(list(self.run_dir.glob(f"{stage}_*.restart"))) for stage in ("flow", "average")}
+        last = max(self.run_dir.glob("*.restart"), key=lambda p: p.stat().st_mtime, default=None)
+        log_path = self.log_dir / f"{self.running}.log" if self.running else None
+        self._conclude(steady, done["flow"], done["average"], None,
+                       interrupted=interrupted_reason(exc, self.running, log_path, last))
+        (self.run_dir / "thermo.csv").unlink()
 
     def _early_stop(self, j: int) -> tuple[str, str] | None:
         """The scene's named reason to end its schedule after averaging segment ``j``, or None."""
@@ -499,7 +525,7 @@ class CaseRunner:
         return self.scene.after_segment(th[th["segment"] == f"average_{j:03d}"] if not th.empty else None,
                                         self.record)
 
-    def _conclude(self, steady, k: int, n_avg: int, unstable: str | None) -> dict:
+    def _conclude(self, steady, k: int, n_avg: int, unstable: str | None, interrupted: str | None = None) -> dict:
         rec = self.record
         parts = [self.thermo("flow", upto=k).assign(stage="flow")]
         if n_avg:
@@ -512,7 +538,9 @@ class CaseRunner:
         n_dangerous = sum(dangerous_builds(text) for text in texts)
         max_overlap = float(thermo["v_overlap"].max()) if "v_overlap" in thermo else float("nan")
         status, reason = (steady.status, steady.reason) if steady else ("unknown", "no flow segment ran")
-        if unstable:
+        if interrupted:
+            status, reason = "interrupted", interrupted
+        elif unstable:
             status, reason = "unstable", unstable
         elif n_dangerous:
             status, reason = "unstable", f"{n_dangerous} dangerous neighbour builds in the logs"
@@ -558,46 +586,15 @@ def slurm_allocation() -> dict | None:
             "partition": os.environ.get("SLURM_JOB_PARTITION")}
 
 
-#: seconds LAMMPS's launcher gets to stop its ranks after SIGTERM before it is killed
-STOP_GRACE_SECONDS = 10.0
-
-
-def stop(proc: subprocess.Popen, grace: float = STOP_GRACE_SECONDS) -> None:
-    """Stop a running LAMMPS launch: SIGTERM (mpirun passes it to its ranks), SIGKILL after ``grace`` s.
-
-    SIGKILL alone would stop the launcher but leave its ranks running and writing into
-    ``run/`` (seen with the wheel's mpirun), where a rerun would meet them.
-    """
-    proc.terminate()
-    try:
-        proc.wait(timeout=grace)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
-
-
-class Terminated(KeyboardInterrupt):
-    """The runner got SIGTERM (a scheduler's or a user's kill): raised so that LAMMPS is stopped too."""
-
-
-def _raise_terminated(signum, frame):
-    raise Terminated(f"signal {signum}")
-
-
 def run_case(case_dir: str | Path, nprocs: int = 1, launcher: str | None = None) -> dict:
     """Run (or resume) the case in ``case_dir`` on ``nprocs`` ranks; see :class:`CaseRunner`.
 
     ``launcher`` replaces the default mpirun (see :func:`launcher_argv`), e.g. ``srun --mpi=pmi2``.
+    Refused (:class:`~granflow.caselock.CaseLocked`) while another process runs the same case.
     While it runs, SIGTERM to this process stops the running LAMMPS segment as Ctrl-C does
     (its log stays; a rerun resumes after the last complete segment), instead of ending the
-    runner alone and leaving LAMMPS running.
+    runner alone and leaving LAMMPS running; either ends the run with status ``interrupted``.
     """
-    import threading
-
-    main = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _raise_terminated) if main else None
-    try:
-        return CaseRunner(case_dir, nprocs, tools=Tools.default(launcher)).run()
-    finally:
-        if main:
-            signal.signal(signal.SIGTERM, previous)
+    runner = CaseRunner(case_dir, nprocs, tools=Tools.default(launcher))
+    with case_lock(runner.case_dir), sigterm_interrupts():
+        return runner.run()

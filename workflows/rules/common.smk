@@ -8,7 +8,7 @@ sys.path.insert(0, str(Path(workflow.basedir) / "src"))
 
 from granflow import registry  # noqa: E402
 from granflow.campaign import validate_campaign  # noqa: E402
-from granflow.config import ConfigError, load_yaml  # noqa: E402
+from granflow.config import ConfigError, check_extent, load_yaml  # noqa: E402
 from granflow.resources import simulate_resources  # noqa: E402
 from granflow.targets import check_targets, cli_targets  # noqa: E402
 
@@ -20,12 +20,17 @@ def refuse(what, exc):
 
 
 try:
-    # each campaign file read again strictly: Snakemake's YAML 1.1 reader takes 0123 for 83 and
-    # `on` for true without a word, and evaluates a __use_yte__ template (refused here, too late
-    # for what the template ran: `granflow check-config` refuses it before anything runs)
+    # each campaign file read again strictly, by granflow's loader (granflow.config.load_yaml):
+    # Snakemake's YAML 1.1 reader takes 0123 for 83 and `on` for true without a word, keeps the
+    # last of a key given twice, and evaluates a __use_yte__ template (refused here, too late for
+    # what the template ran: `granflow check-config` refuses it before anything runs); the loader
+    # also refuses an alias bomb in bounded work (Snakemake's reader shares aliased lists, so a
+    # bomb of lists reaches this point at once; one of mappings Snakemake copies out itself first)
     for _file in workflow.configfiles:
         load_yaml(_file)
-    # the config Snakemake actually uses: the file plus any --configfile/--config overrides
+    # the config Snakemake actually uses: the file plus any --configfile/--config overrides, its
+    # size bounded like a file's before anything walks it (a --config value is parsed by Snakemake)
+    check_extent(config, "config")
     CAMPAIGN = validate_campaign(dict(config), root=Path(workflow.basedir), source="config")
 except ConfigError as exc:
     refuse("invalid configuration", exc)

@@ -1,10 +1,38 @@
 # One set of rules for every scene of the registry: render -> simulate -> analyse per
 # case, then one table and the figures of the whole sweep. A case directory is named
 # by its sweep values, e.g. results/channel/demo/W~20/phi~0.6 (each scene's sweep axes).
+#
+# Damaged intermediates (granflow.intermediates): every JSON/CSV a script reads is checked,
+# and a damaged one stops the rule with one line naming it and the command that rebuilds it.
+# analysis/ is checked against the SHA256SUMS that analyse writes last, table.csv and each
+# figure and snapshot against <file>.sha256. Outputs flagged update() are not deleted before
+# their rule runs (Snakemake restores them if it fails): the last good table, figure,
+# snapshot or analysis stays in place; their checksum files are ordinary outputs, so a
+# failed rule is still due at the next call and the refusal repeats until it is rebuilt.
 import re
+
+from snakemake.exceptions import WorkflowError
+
+from granflow.intermediates import COMMAND_ENV, snakemake_command
 
 SCENE_DIR = RESULTS + "/{scene}/" + RUNG
 CASE = SCENE_DIR + "/{case}"
+ANALYSIS = CASE + "/analysis"
+
+
+def campaign_command():
+    """This campaign's snakemake command without targets, for the rebuild command a refusal names."""
+    try:
+        cores = workflow.cores
+    except WorkflowError:  # a dry run without --cores
+        cores = None
+    return snakemake_command(workflow.main_snakefile, os.getcwd(), cores, workflow.overwrite_configfiles,
+                             workflow.config_settings.config_args or ())
+
+
+# read by the scripts (they run in this process's environment): not a rule parameter, which
+# would rerun every job when the command line changes
+os.environ[COMMAND_ENV] = campaign_command()
 
 
 wildcard_constraints:
@@ -15,18 +43,25 @@ wildcard_constraints:
 
 
 def scene_targets():
-    """Each enabled scene's table and figures (a scene whose sweep is empty has none)."""
+    """Each enabled scene's table and figures, each with its checksum file (written last: missing
+    after a failed rebuild, so the rule is due again); a scene whose sweep is empty has none."""
     out = []
     for name, scene in SCENES.items():
         if scene_cases(name):
             base = f"{RESULTS}/{name}/{RUNG}"
-            out += [f"{base}/table.csv"] + [f"{base}/figures/{f}.png" for f in scene.figures]
+            for f in [f"{base}/table.csv"] + [f"{base}/figures/{f}.png" for f in scene.figures]:
+                out += [f, f + ".sha256"]
     return out
 
 
 def all_analyses(wildcards):
-    """The analysis folders of every case of the scene, in sweep order."""
-    return [f"{RESULTS}/{wildcards.scene}/{RUNG}/{case}/analysis" for case in scene_cases(wildcards.scene)]
+    """Every case's analysis/SHA256SUMS (the checksums of its analysis folder), in sweep order."""
+    return [f"{RESULTS}/{wildcards.scene}/{RUNG}/{case}/analysis/SHA256SUMS" for case in scene_cases(wildcards.scene)]
+
+
+def all_scalars(wildcards):
+    """Every case's analysis/scalars.json, in sweep order (an input: a change to one reruns its readers)."""
+    return [f"{RESULTS}/{wildcards.scene}/{RUNG}/{case}/analysis/scalars.json" for case in scene_cases(wildcards.scene)]
 
 
 def table_caption(wildcards):
@@ -76,7 +111,9 @@ rule analyse:
         thermo=rules.simulate.output.thermo,
         params=rules.render.output.params,
     output:
-        analysis=directory(CASE + "/analysis"),
+        # the folder's other files (one CSV per table) are listed in SHA256SUMS
+        scalars=update(ANALYSIS + "/scalars.json"),
+        sums=ANALYSIS + "/SHA256SUMS",
     threads: analyse_threads
     benchmark:
         CASE + "/benchmarks/analyse.tsv"
@@ -88,9 +125,11 @@ rule analyse:
 
 rule table:
     input:
-        analyses=all_analyses,
+        scalars=all_scalars,
+        sums=all_analyses,
     output:
-        table=report(SCENE_DIR + "/table.csv", caption="../report/table.rst", category="{scene}"),
+        table=update(report(SCENE_DIR + "/table.csv", caption="../report/table.rst", category="{scene}")),
+        sha256=SCENE_DIR + "/table.csv.sha256",
     params:
         caption=table_caption,
     benchmark:
@@ -103,9 +142,12 @@ rule table:
 
 rule figure:
     input:
-        analyses=all_analyses,
+        scalars=all_scalars,
+        sums=all_analyses,
     output:
-        figure=report(SCENE_DIR + "/figures/{figure}.png", caption="../report/figure.rst", category="{scene}"),
+        figure=update(report(SCENE_DIR + "/figures/{figure}.png", caption="../report/figure.rst",
+                             category="{scene}")),
+        sha256=SCENE_DIR + "/figures/{figure}.png.sha256",
     params:
         caption=figure_caption,
     benchmark:

@@ -9,17 +9,22 @@ def snapshot_scenes():
 
 
 def snapshot_targets():
-    return [f"{RESULTS}/{name}/{RUNG}/{case}/snapshots.png" for name in snapshot_scenes() for case in scene_cases(name)]
+    """Each case's snapshots.png and its checksum file (missing after a failed rebuild: the rule is due again)."""
+    return [f"{RESULTS}/{name}/{RUNG}/{case}/snapshots.png{ext}" for name in snapshot_scenes()
+            for case in scene_cases(name) for ext in ("", ".sha256")]
 
 
 rule snapshots:
     """The case's particle snapshots side by side: first image, end of the flow stage, last image."""
     input:
         status=rules.simulate.output.status,
+        thermo=rules.simulate.output.thermo,
         params=rules.render.output.params,
     output:
-        png=report(CASE + "/snapshots.png", caption="../report/snapshots.rst", category="{scene}",
-                   subcategory="particle snapshots", labels={"case": "{case}"}),
+        # kept in place if a rebuild fails (update, see scenes.smk); its checksum is written last
+        png=update(report(CASE + "/snapshots.png", caption="../report/snapshots.rst", category="{scene}",
+                          subcategory="particle snapshots", labels={"case": "{case}"})),
+        sha256=CASE + "/snapshots.png.sha256",
     benchmark:
         CASE + "/benchmarks/snapshots.tsv"
     log:

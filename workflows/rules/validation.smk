@@ -15,6 +15,10 @@ def scene_figures(wildcards):
     return [f"{RESULTS}/{wildcards.scene}/{RUNG}/figures/{f}.png" for f in SCENES[wildcards.scene].figures]
 
 
+def scene_figure_checksums(wildcards):
+    return [f + ".sha256" for f in scene_figures(wildcards)]
+
+
 def scene_case_dirs(wildcards):
     return {case: f"{RESULTS}/{wildcards.scene}/{RUNG}/{case}" for case in scene_cases(wildcards.scene)}
 
@@ -24,9 +28,12 @@ rule validation_record:
     checks.csv, profiles, figures and key log lines."""
     input:
         table=SCENE_DIR + "/table.csv",
+        table_sha256=SCENE_DIR + "/table.csv.sha256",
         provenance=SCENE_DIR + "/provenance.csv",
         analyses=all_analyses,
+        scalars=all_scalars,
         figures=scene_figures,
+        figure_checksums=scene_figure_checksums,
     output:
         summary=VALIDATION_DIR + "/{scene}/summary.json",
         checks=report(VALIDATION_DIR + "/{scene}/checks.csv", caption="../report/validation.rst",

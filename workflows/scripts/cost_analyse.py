@@ -8,11 +8,14 @@ sys.stderr = open(snakemake.log[0], "w")
 os.environ.setdefault("NUMBA_NUM_THREADS", str(snakemake.threads))
 from granflow.cost import post_record, prefix_segments, segment_costs  # noqa: E402
 from granflow.headline import measure_with_errors  # noqa: E402
+from granflow.intermediates import read_csv, read_json, report_plainly  # noqa: E402
 
+report_plainly()
 point = json.loads(snakemake.params.point)
 case_dir = Path(snakemake.input.params).parent
-record = post_record(json.loads(Path(snakemake.input.params).read_text()), point["post"])
-status = json.loads(Path(snakemake.input.status).read_text())
+record = post_record(read_json(snakemake.input.params, keys=("scene",)), point["post"])
+status = read_json(snakemake.input.status, keys=("status", "dumps"))
+read_csv(snakemake.input.thermo)  # the measurement reads it itself: refuse a damaged one by name first
 scene = snakemake.wildcards.scene
 
 # a jammed or unstable run has no flow to measure, even where the deck averaged anyway

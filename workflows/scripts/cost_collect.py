@@ -12,27 +12,30 @@ import pandas as pd  # noqa: E402
 
 from granflow.cost import paper_time_step  # noqa: E402
 from granflow.cost_analysis import cost_scaling, knob_errors, plot_error_vs_cost, summary_markdown, within_table  # noqa: E402
+from granflow.intermediates import read_csv, read_json, report_plainly  # noqa: E402
+
+report_plainly()
 
 study = json.loads(snakemake.params.study)
 scene = snakemake.wildcards.scene
 
 
-def bench(path):
-    """cpu_time (s) and max_rss (MB) of a Snakemake benchmark file."""
-    row = pd.read_csv(path, sep="\t").iloc[-1]
+def bench(path, output):
+    """cpu_time (s) and max_rss (MB) of a Snakemake benchmark file (rebuilt with the job's ``output``)."""
+    row = read_csv(path, rebuild=Path(path).parent / output, sep="\t").iloc[-1]
     return float(row["cpu_time"]), float(row["max_rss"]), float(row["s"])
 
 
-sim_wall = {Path(p).parent.name: bench(p)[2] for p in snakemake.input.sim_bench}
+sim_wall = {Path(p).parent.name: bench(p, "run/status.json")[2] for p in snakemake.input.sim_bench}
 rows = []
 for obs_path, post_path in zip(snakemake.input.observables, snakemake.input.post_bench):
-    point = json.loads(Path(obs_path).read_text())
+    point = read_json(obs_path, keys=("point", "observables"))
     p = point["point"]
     # simulation: CPU-seconds of the LAMMPS processes of the segments this point needs (measured
     # by the runner; Snakemake's benchmark of the rule does not see the short-lived MPI children);
     # post-processing: Snakemake's benchmark of the analysis job
     sim_cpu, sim_rss = point["sim_cpu_s"], point["peak_rss_mb"]
-    post_cpu, post_rss, _ = bench(post_path)
+    post_cpu, post_rss, _ = bench(post_path, "observables.json")
     knobs = list(study["base_values"]) if p["knob"] is None else [p["knob"]]
     for knob in knobs:
         value = study["base_values"][knob] if p["knob"] is None else p["value"]

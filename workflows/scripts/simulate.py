@@ -8,7 +8,11 @@ import sys
 from pathlib import Path
 
 sys.stderr = open(snakemake.log[0], "a")
+from granflow.intermediates import read_json, report_plainly  # noqa: E402
 from granflow.runner import run_case  # noqa: E402
+
+report_plainly()
+read_json(snakemake.input.params, keys=("scene",))  # the runner reads it: refuse a damaged one by name first
 
 launcher = snakemake.resources.get("mpi")
 # under an MPI launcher the scheduler allocated `tasks` ranks: LAMMPS runs on exactly those

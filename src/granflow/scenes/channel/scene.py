@@ -74,6 +74,26 @@ class ChannelScene(Scene):
                    f"2*wall_bin_width + bin_width = {2 * r['wall_bin_width'] + r['bin_width']}")
             require(r["t_segment"] <= r["t_flow_max"],
                    f"{source}: rungs.{name}.t_segment = {r['t_segment']}: allowed <= t_flow_max = {r['t_flow_max']}")
+        self.check_effects(scene["effects"], source)
+
+    def check_effects(self, eff: dict, source: str) -> None:
+        """Refuse effects the channel cannot run with, naming the key, the value and why (each
+        ran at smoke and failed as its message says)."""
+        require("x" in eff["walls"],
+                f"{source}: effects.walls = {list(eff['walls'])} is not allowed: the channel is bounded across x "
+                f"by its two walls alone (x is a fixed boundary), so particles leave the box and LAMMPS stops "
+                f"with lost atoms while the bed settles"
+                + (" (and effects.wall_force = true reads the force of walls that do not exist)"
+                   if eff["wall_force"] else "") + ": allowed [x]")
+        periodic = list(eff["periodic"])
+        require("z" in periodic,
+                f"{source}: effects.periodic = {periodic} is not allowed: the channel has no walls in z, so a "
+                f"non-periodic z is a fixed boundary that particles leave, and LAMMPS stops with lost atoms: "
+                f"allowed [y, z]")
+        require("y" in periodic,
+                f"{source}: effects.periodic = {periodic} is not allowed: the flow direction y is made periodic "
+                f"after packing whatever this says (a channel without ends), so the file would describe a run "
+                f"other than the one made: allowed [y, z]")
 
     def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
         r = scene["rungs"][rung]

@@ -60,6 +60,35 @@ class HeapScene(Scene):
         for name, r in scene["rungs"].items():
             require(r["feed_width"] < r["W"], f"{source}: rungs.{name}.feed_width = {r['feed_width']}: "
                                              f"allowed < W = {r['W']}")
+        self.check_effects(scene["effects"], source)
+
+    #: the walls that close the box (its faces are fixed boundaries): without one, particles leave
+    #: through that face and LAMMPS stops with lost atoms (each measured at smoke)
+    CLOSING_WALLS = {"end": "the end wall at x = W stops the flow down the base",
+                     "feed_side": "the wall at x = 0 holds the pile under the feed",
+                     "sides": "the side walls at y = 0 and T bound the gap"}
+
+    def check_effects(self, eff: dict, source: str) -> None:
+        """Refuse effects the heap cannot run with, naming the key, the value and why (each
+        combination below ran at smoke and failed as its message says)."""
+        require(eff["feed"], f"{source}: effects.feed = false is not allowed: the heap holds only the particles "
+                             f"the feed pours (the init stage leaves the box empty), so there would be nothing "
+                             f"to simulate (LAMMPS stops at the first flow segment: 'Velocity command with no "
+                             f"atoms existing'): allowed true")
+        require(eff["gravity"], f"{source}: effects.gravity = false is not allowed with effects.feed = true: the "
+                                f"feed is LAMMPS's fix pour, which needs a fix gravity (LAMMPS stops: 'There must "
+                                f"be exactly one fix gravity defined for fix pour'): allowed true")
+        walls = list(eff["walls"])
+        missing = [w for w in self.CLOSING_WALLS if w not in walls]
+        require(not missing, f"{source}: effects.walls = {walls} is not allowed: it lacks {', '.join(missing)} ("
+                             + "; ".join(self.CLOSING_WALLS[w] for w in missing) + "): the box's faces are fixed "
+                             f"boundaries, so particles leave through each open face and LAMMPS stops with lost "
+                             f"atoms: allowed end, feed_side and sides, with or without base")
+        require("base" in walls or eff["freeze_base"],
+                f"{source}: effects.walls = {walls} without base is not allowed with effects.freeze_base = false: "
+                f"nothing then holds the particles on the inclined base, they fall out of the box and LAMMPS stops "
+                f"with lost atoms: allowed base in effects.walls, or freeze_base = true (the particles frozen on "
+                f"the base plane are then the base)")
 
     def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
         """A known mixture, and a feed rate the feed zone can deliver."""

@@ -55,6 +55,15 @@ class SiloScene(Scene):
                f"{source}: effects.walls = {scene['effects']['walls']}: allowed [side, floor] (the silo needs both)")
         require(not scene["effects"]["reinsert"] or scene["effects"]["deletion"],
                f"{source}: effects.reinsert = true needs effects.deletion = true: allowed reinsert only with deletion")
+        # each ran at smoke (R = 3.5 r_b) and ended 'clogged' with outflow 0, an arch named that is not there
+        require(scene["effects"]["deletion"],
+                f"{source}: effects.deletion = false is not allowed: the outflow is measured as the mass deleted "
+                f"below the orifice, so without deletion it reads 0 and every run ends 'clogged' (an arch "
+                f"blocking the orifice) whatever flows: allowed true")
+        require(scene["effects"]["gravity"],
+                f"{source}: effects.gravity = false is not allowed: the silo drains under gravity alone; "
+                f"without it the bed does not settle, nothing leaves through the orifice and the run ends "
+                f"'clogged' with outflow 0 (re-insertion's downward push aside): allowed true")
 
     def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
         """The orifice must fit the rung's silo."""

@@ -12,16 +12,15 @@ from pathlib import Path
 import pytest
 
 from granflow.cli import main
-from granflow.config import (
+from granflow.config import load_scene, parse_override
+from granflow.yamlio import (
     MAX_DEPTH,
     MAX_DOCUMENT_BYTES,
     MAX_NODES,
     ConfigError,
     _Loader,
     check_extent,
-    load_scene,
     load_yaml,
-    parse_override,
     yaml_load,
 )
 

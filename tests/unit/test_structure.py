@@ -122,3 +122,23 @@ def test_drift_of_a_straight_line_is_its_rise_over_the_window():
     flat = pd.DataFrame({"t_mid": t, "ratio": 1.3 + rng.normal(0, 0.01, len(t))})
     d, se = drift(flat)
     assert abs(d) < 3 * se
+
+
+def test_a_sheared_plug_carried_by_its_mean_flow_has_no_nonaffine_displacement():
+    pos, box = _channel_plug(9)
+    H, W = box[1, 1], 20.0
+
+    def u(x):  # a shear across the whole plug, faster than half the cell per frame in the middle
+        v = np.zeros((len(x), 3))
+        v[:, 1] = -(20.0 + 0.5 * np.minimum(x, W - x))
+        return v
+
+    frames, p = [], pos.copy()
+    for k in range(25):
+        frames.append(_frame(2.0 * k, p, box))
+        p = p + u(p[:, 0]) * 2.0
+        p[:, 1] = np.mod(p[:, 1], H)
+    carried = plug_structure(frames, W=W, plug_edge=4.0, mean_velocity=u).summary["nonaffine_rms_plug"]
+    rigid = plug_structure(frames, W=W, plug_edge=4.0).summary["nonaffine_rms_plug"]
+    assert carried < 1e-9
+    assert rigid > 1.0   # taking away only a rigid shift counts the shear as rearrangement

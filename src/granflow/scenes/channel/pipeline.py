@@ -111,13 +111,21 @@ def channel_blocks(case_dir: str | Path, record: dict, window: float, n_blocks: 
     return block_ratios(profiles, float(record["parameters"]["W"]))
 
 
-def channel_plug_structure(case_dir: str | Path, record: dict, plug_edge: float):
-    """:func:`.analysis.plug.plug_structure` over every frame of the averaging window."""
+def channel_plug_structure(case_dir: str | Path, record: dict, plug_edge: float, profile: pd.DataFrame):
+    """:func:`.analysis.plug.plug_structure` over every frame of the averaging window, the mean flow
+    taken from the case's time-averaged ``profile`` (x, u_x, u_y, u_z; linearly interpolated across x)."""
     from .analysis.plug import plug_structure
 
     case_dir, record, status = case_inputs(case_dir, record)
     frames = particle_frames([case_dir / "run" / d for d in status["dumps"]], record["dt"])
-    return plug_structure(frames, float(record["parameters"]["W"]), plug_edge, dt=float(record["dt"]))
+    x = profile["x"].to_numpy(float)
+    u = [np.nan_to_num(profile[c].to_numpy(float)) if c in profile else np.zeros(len(x)) for c in ("u_x", "u_y", "u_z")]
+
+    def mean_velocity(xp):
+        return np.column_stack([np.interp(xp, x, c) for c in u])
+
+    return plug_structure(frames, float(record["parameters"]["W"]), plug_edge, dt=float(record["dt"]),
+                          mean_velocity=mean_velocity)
 
 
 def channel_observables(case_dir: str | Path, record: dict, t_window=None) -> dict:

@@ -148,7 +148,7 @@ class ChannelScene(Scene):
             profile, facts = channel_profile(case_dir)
             scalars = analyse_channel(profile, W, phi)
             window = thermo[thermo["stage"] == "average"]
-            tables, more = self._steadiness_and_plug(case_dir, record, scalars)
+            tables, more = self._steadiness_and_plug(case_dir, record, scalars, profile)
             scalars.update(more)
         else:
             # not averaged (jammed, no steady state, unstable): an empty profile, the reason in the table
@@ -173,7 +173,7 @@ class ChannelScene(Scene):
         return {"profile": profile, **tables}, scalars
 
     @staticmethod
-    def _steadiness_and_plug(case_dir: Path, record: dict, scalars: dict) -> tuple[dict, dict]:
+    def _steadiness_and_plug(case_dir: Path, record: dict, scalars: dict, profile) -> tuple[dict, dict]:
         """Per-block u_max/u_slip with its drift, and the plug's structure (:mod:`.analysis.plug`)."""
         from .analysis.plug import drift
         from .pipeline import channel_blocks, channel_plug_structure
@@ -181,7 +181,7 @@ class ChannelScene(Scene):
         window = float(record["rung_knobs"]["t_average"])
         blocks = channel_blocks(case_dir, record, window)
         change, change_se = drift(blocks)
-        plug = channel_plug_structure(case_dir, record, float(scalars.get("x_dense_plug", float("nan"))))
+        plug = channel_plug_structure(case_dir, record, float(scalars.get("x_dense_plug", float("nan"))), profile)
         s = plug.summary
         out = {"ratio_drift": change, "ratio_drift_se": change_se,
                "ratio_block_sd": float(blocks["ratio"].std(ddof=1)) if len(blocks) > 1 else float("nan"),

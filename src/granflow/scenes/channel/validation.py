@@ -311,11 +311,12 @@ def steadiness_and_plug_checks(case: ChannelCase) -> list[Check]:
     checks = [Check("drift of u_max/u_slip over the averaging window", "0 (steady)", "§2, §3.1", drift, drift_se,
                     name, (0.0, 0.0), note=note)]
     rms = _value(case, "plug_nonaffine_rms")
-    state = ("one frozen configuration (it moves as a rigid body)" if rms < FROZEN_BELOW else
+    state = ("one frozen configuration" if rms < FROZEN_BELOW else
              "rearranged" if rms >= REARRANGED_ABOVE else "partly rearranged")
     note = (f"particles that start in the plug (distance from the wall ≥ {_value(case, 'x_dense_plug'):.3g} d_p): "
-            f"each one's displacement less the plug's rigid motion over {window:g} √(d_p/g): {rms:.3g} d_p, i.e. "
-            f"{state} (< {FROZEN_BELOW:g} d_p frozen, ≥ {REARRANGED_ABOVE:g} rearranged). Bond order: q6 = "
+            f"each one's displacement less what the mean flow (the time-averaged velocity at its x) carried it, "
+            f"over {window:g} √(d_p/g): {rms:.3g} d_p, i.e. "
+            f"{state} (< {FROZEN_BELOW:g} d_p frozen: it moves with the mean flow as one configuration; ≥ {REARRANGED_ABOVE:g} rearranged). Bond order: q6 = "
             f"{_value(case, 'plug_q6'):.3f} in the plug, {_value(case, 'shear_q6'):.3f} in the shear zone (fcc 0.5745, "
             f"dense random packing 0.35-0.45); crystal-like particles (ten Wolde et al. 1996) "
             f"{_value(case, 'plug_crystal_fraction'):.1%} of the plug, {_value(case, 'shear_crystal_fraction'):.1%} "

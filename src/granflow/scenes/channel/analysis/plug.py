@@ -9,10 +9,11 @@ answer differently from the paper's (B = 40, H = 60 + ΔH):
   (distance from the nearer wall ≥ the plug edge of the averaged profile), the Steinhardt
   :math:`q_6`, the fraction of crystal-like particles (ten Wolde et al. 1996,
   :mod:`postproc.structure`), the layering along the periodic depth z, and the root-mean-square
-  *non-affine* displacement: each plug particle's displacement since the first frame less the
-  plug's mean displacement. A plug that rearranges (as the paper's, φ ≈ 0.63, random close
+  *non-affine* displacement: each plug particle's displacement since the first frame less what
+  the mean flow carries it (the time-averaged u_y at its x, frame by frame, then the plug's
+  remaining mean shift). A plug that rearranges (as the paper's, φ ≈ 0.63, random close
   packing) gathers displacements of order a diameter over the window; a plug frozen into one
-  configuration moves as a rigid body, a small fraction of a diameter: its bin-to-bin scatter of φ
+  configuration moves with the mean flow, a small fraction of a diameter: its bin-to-bin scatter of φ
   is then structure, which no time average removes.
 
 Units: :math:`d_p`, :math:`\\sqrt{d_p/g}`.
@@ -60,7 +61,7 @@ class PlugStructure:
 
 
 def plug_structure(frames, W: float, plug_edge: float, periodic=(False, True, True),
-                   dt: float | None = None) -> PlugStructure:
+                   dt: float | None = None, mean_velocity=None) -> PlugStructure:
     """Structure of the plug, frame by frame (module docstring).
 
     Parameters
@@ -75,6 +76,11 @@ def plug_structure(frames, W: float, plug_edge: float, periodic=(False, True, Tr
         Which axes wrap: the channel's y (flow) and z (depth).
     dt : float, optional
         Time step: a frame's time is its step times ``dt`` (else the dump's own time, else the step).
+    mean_velocity : callable, optional
+        The mean flow: ``mean_velocity(x)`` gives the time-averaged velocity (3 components, shape
+        (N, 3)) at positions ``x`` across the channel. Each step first takes away what it carries a
+        particle (the affine part, a shear across the plug included); without it only the plug's
+        mean shift is taken away (a rigid plug).
     """
     frames = list(frames)
     if not frames or not np.isfinite(plug_edge) or plug_edge >= 0.5 * W:
@@ -92,8 +98,11 @@ def plug_structure(frames, W: float, plug_edge: float, periodic=(False, True, Tr
         if ids is not None and frame.id is not None and not np.array_equal(frame.id, ids):
             raise ValueError(f"frame at step {frame.timestep}: the atoms differ from the first frame's")
         here = frame.position[tracked]
+        t = frame.timestep * dt if dt is not None else frame.time if frame.time is not None else frame.timestep
         if k:
             step = here - previous
+            if mean_velocity is not None:
+                step -= np.asarray(mean_velocity(previous[:, 0]), dtype=float) * (t - t_previous)
             for axis in range(3):
                 if periodic[axis]:
                     step[:, axis] = _wrap(step[:, axis] - _circular_shift(step[:, axis], lengths[axis]),
@@ -101,8 +110,7 @@ def plug_structure(frames, W: float, plug_edge: float, periodic=(False, True, Tr
                 else:
                     step[:, axis] -= step[:, axis].mean()
             cumulative += step
-        previous = here
-        t = frame.timestep * dt if dt is not None else frame.time if frame.time is not None else frame.timestep
+        previous, t_previous = here, t
         row = {"t": float(t),
                "nonaffine_rms_plug": float(np.sqrt(np.mean(np.sum(cumulative**2, axis=1))))}
         if k in pick:

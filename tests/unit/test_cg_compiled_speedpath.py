@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from postproc import cg_compiled
+from postproc import cg_compiled, rz_tables
 from postproc.coordinates import RZCoordinates
 from postproc.kernels import Gaussian
 
@@ -105,7 +105,7 @@ def test_no_particles_and_particles_off_the_grid_deposit_nothing():
 def test_hermite_cells_match_values_and_derivatives_at_both_ends():
     x = np.linspace(0.0, 1.0, 9)
     table = np.stack([np.sin(x), np.cos(x) * (x[1] - x[0])], axis=-1)  # derivative per column step
-    cells = cg_compiled._hermite_cells(table)
+    cells = rz_tables._hermite_cells(table)
     for s, end in ((0.0, slice(None, -1)), (1.0, slice(1, None))):
         value = cells[:, 0] + s * (cells[:, 1] + s * (cells[:, 2] + s * cells[:, 3]))
         slope = cells[:, 1] + s * (2.0 * cells[:, 2] + 3.0 * s * cells[:, 3])

@@ -28,6 +28,17 @@ Session 28 (bench/results/bench_cg_session28.txt, load average 1.1-1.3 with the 
 at r_b/4 nodes with w = r_b/2 the time-averaged kinetic fields run at 0.81 / 1.33 M particle-frames/s
 on 1 / 2 threads (the issue's 1.5 M: 89 %), eq. 7 at 0.40 / 0.64 M (half: two deposits per frame).
 
+Session 29: far from the axis the compiled path takes J from one polynomial in b per row of
+epsilon (postproc.rz_tables), evaluated for a grid row's nodes 4 at a time, instead of a table
+lookup per node; agreement with numpy 3e-9 (was 1e-8); tables built in ~12 ms per kernel (was
+3 ms). Against the code before, on the same frames, interleaved (bench/bench_cg_versions.py),
+the machine busy with two LAMMPS runs (load average 1.8-3.5, so the second thread found no free
+core): after/before 1.35x single-threaded for the kinetic fields at r_b/4 (1.060 vs 0.786 M
+particle-frames/s, wall = CPU), 1.33x for eq. 7 (0.515 vs 0.387 M), by CPU time 1.34x for the
+bulk fields at r_b and 1.13-1.15x for the contacts (fewer nodes per item). Scaled from session
+28, about 1.09 / 1.7-1.8 M at r_b/4 on 1 / 2 threads on a quiet machine (the range: the
+serial part of a frame, ~15 % single-threaded, is unchanged), eq. 7 about 0.53 / 0.85 M.
+
 Each configuration's kernel is made once and shared by its passes (a new
 accumulator per pass), as in an analysis over many frames: the compiled path's
 tables are built once per kernel, on its first deposit, and that time is

@@ -13,17 +13,18 @@ once per particle or once per grid row):
   the factors of successive nodes follow by recurrence (two exponentials per
   particle and axis, none per node), and the node range of each grid row is
   computed, not searched (the compiled path needs equally spaced nodes);
-* per grid row, :math:`a`, the far table row and its weight, and
-  :math:`a^{-1/2}` (from :math:`r_n^{-1/2}`, tabulated once per call) are
-  computed once; per node only :math:`J` remains (a square root, then one cell
-  of two table rows);
+* per grid row, :math:`a`, the far polynomial (mixed from two rows of
+  :math:`\\epsilon`) and its weight, and :math:`a^{-1/2}` (from
+  :math:`r_n^{-1/2}`, tabulated once per call) are computed once; per node
+  only :math:`J` remains, a square root and a polynomial (:func:`_estrin`), in
+  a straight loop over the row's nodes that LLVM vectorises, 4 nodes at a time;
 * all K quantities of a particle are added to a node in one pass, 4 at a time
   (:func:`_add_scaled4`: K is padded to a multiple of 4, a node's values are
   contiguous), into the block of the particle's group;
 * particles are visited in order of group, then nearest node in r, then in z (a
   counting sort, O(N)), so that successive particles add into the same nodes,
-  in cache, and read the same rows of the far table (:math:`\\epsilon` depends
-  on :math:`r_i`);
+  in cache, and read the same rows of the far polynomials (:math:`\\epsilon`
+  depends on :math:`r_i`);
 * :func:`deposit_rz` runs on the calling thread and ``n_threads - 1`` helper
   threads (compiled code without the GIL), each adding into its own buffer;
   they take chunks of :data:`CHUNK` particles from a shared atomic counter as
@@ -48,8 +49,7 @@ from numba import njit
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
-from .rz_tables import (FAR_COLUMNS, FAR_ROWS, NEAR_COLUMNS, NEAR_ROW_SPACING, _cumulative, _far_integrand,
-                        _hermite_cells, _u_integrand, _v_integrand)
+from .rz_tables import FAR_ROWS, NEAR_COLUMNS, table_arrays
 
 #: Particles a thread of :func:`deposit_rz` takes at a time.
 CHUNK = 64
@@ -65,10 +65,11 @@ class RZTables:
         :math:`c^2 / 2\\sigma^2`.
     a_split : float
         :math:`a_s = \\max(C, 1)`.
-    far : ndarray, shape (FAR_ROWS + 1, FAR_COLUMNS, 4)
-        Cubic coefficients (:func:`_hermite_cells`) of :math:`K(\\epsilon, t)` on
-        the cells of t, per row of :math:`\\epsilon` (one row and one cell beyond
-        the range: interpolation never needs a bounds test).
+    far : ndarray, shape (pieces, FAR_ROWS + 1, 16)
+        Coefficients of :math:`F(\\epsilon, b)` in powers of
+        :math:`y \\in [-1, 1]` on each piece of :math:`[0, C]` in b, per row of
+        :math:`\\epsilon` (:func:`postproc.rz_tables._far_polynomials`; one row
+        beyond the range: interpolation never needs a bounds test).
     near_u, near_v : ndarray, shape (n_a + 3, NEAR_COLUMNS - 1, 4)
         Cubic coefficients of :math:`U(a, u)` and :math:`\\tilde V(a, v)` on the
         cells of u or v, rows at :math:`a = (k - 1) h_a`.
@@ -88,24 +89,8 @@ class RZTables:
 
     @classmethod
     def build(cls, C: float) -> "RZTables":
-        a_split = max(float(C), 1.0)
-        # one row and one column beyond the range
-        eps = np.arange(FAR_ROWS + 1) / (a_split * (FAR_ROWS - 1))
-        t = np.arange(FAR_COLUMNS + 1) * (np.sqrt(C) / (FAR_COLUMNS - 1))
-        n_a = int(np.ceil(a_split / NEAR_ROW_SPACING))
-        step = a_split / n_a
-        a = (np.arange(n_a + 3) - 1.0) * step  # one ghost row below 0, two above a_s
-        u = np.linspace(0.0, np.sqrt(0.5), NEAR_COLUMNS)
-        near_u, near_v = _cumulative(_u_integrand, a, u), _cumulative(_v_integrand, a, u)
-        return cls(
-            C=float(C),
-            a_split=a_split,
-            far=_hermite_cells(_cumulative(_far_integrand, eps, t)),
-            near_u=_hermite_cells(near_u),
-            near_v=_hermite_cells(near_v),
-            near_end=np.ascontiguousarray(np.column_stack([near_u[:, -1, 0], near_v[:, -1, 0]])),
-            near_step=step,
-        )
+        """The tables for :math:`C` (:func:`postproc.rz_tables.table_arrays`)."""
+        return cls(C=float(C), **table_arrays(float(C)))
 
     def J(self, a, b) -> np.ndarray:
         """:math:`J(a, b)` for arrays of pairs, with the compiled interpolation (for tests)."""
@@ -117,9 +102,9 @@ class RZTables:
 
     def _args(self):
         """The tables and their scales, in the order the compiled functions take them."""
-        t_scale = (FAR_COLUMNS - 1) / np.sqrt(self.C)
+        y_scale = 2.0 * self.far.shape[0] / self.C  # 2 / the width of a piece in b
         u_scale = (NEAR_COLUMNS - 1) / np.sqrt(0.5)
-        return (self.C, self.a_split, self.far, (FAR_ROWS - 1) * self.a_split, t_scale,
+        return (self.C, self.a_split, self.far, (FAR_ROWS - 1) * self.a_split, y_scale,
                 self.near_u, self.near_v, self.near_end, 1.0 / self.near_step, u_scale)
 
 
@@ -176,10 +161,10 @@ def _add_scaled4(typingctx, out, o, w, q, k):
 
 
 # Table and buffer indices are unsigned (np.uint64): numba then skips the negative-index
-# wraparound test, which otherwise blocks vectorisation. In the per-node lookup, floats are
-# converted to (non-negative) indices through int64: one instruction each way, where uint64
-# needs several.
+# wraparound test, which otherwise blocks vectorisation.
 _U1, _U2, _U3 = np.uint64(1), np.uint64(2), np.uint64(3)
+#: Coefficients that :func:`_estrin` evaluates (a far polynomial of lower degree is padded with zeros).
+_FAR_TERMS = 16
 
 
 @njit(inline="always", **_JIT)
@@ -189,12 +174,42 @@ def _cubic(cells, i, j, s):
 
 
 @njit(inline="always", **_JIT)
-def _far_K(far, ie, fe, t):
-    """K(epsilon, t): linear between rows ie, ie + 1 (fraction fe), the cell's cubic in t (column units)."""
-    it = np.int64(t)  # t >= 0
-    s = t - it
-    k0 = _cubic(far, ie, np.uint64(it), s)
-    return k0 + fe * (_cubic(far, ie + _U1, np.uint64(it), s) - k0)
+def _estrin(c, y):
+    """:math:`\\sum_{k < 16} c_k y^k` by Estrin's scheme (5 dependent steps where Horner's takes 15)."""
+    y2 = y * y
+    y4 = y2 * y2
+    q0 = (c[0] + c[1] * y) + y2 * (c[2] + c[3] * y)
+    q1 = (c[4] + c[5] * y) + y2 * (c[6] + c[7] * y)
+    q2 = (c[8] + c[9] * y) + y2 * (c[10] + c[11] * y)
+    q3 = (c[12] + c[13] * y) + y2 * (c[14] + c[15] * y)
+    return (q0 + y4 * q1) + (y4 * y4) * (q2 + y4 * q3)
+
+
+@njit(inline="always", **_JIT)
+def _far_row(far, piece, ie, fe, row):
+    """``row``: the far polynomial at epsilon, rows ie and ie + 1 of ``far[piece]`` mixed linearly (fraction fe)."""
+    for k in range(np.uint64(min(far.shape[2], row.shape[0]))):  # never more terms than _estrin takes
+        c0 = far[piece, ie, k]
+        row[k] = c0 + fe * (far[piece, ie + _U1, k] - c0)
+
+
+@njit(inline="always", **_JIT)
+def _far_weights(wz, row, piece, width, y_scale, b_row, w_row, dz2h, gz, j_lo, j_hi):
+    """``wz[j] = w_row gz[j] sqrt(b) F(b)``, b = ``b_row - dz2h[j]``, j in [j_lo, j_hi): a vectorised loop.
+
+    Piece 0 sets every node (b <= 0 gives 0), a further one overwrites the
+    nodes with b in ``[piece width, (piece + 1) width)``.
+    """
+    if piece == 0:
+        for j in range(np.uint64(j_lo), np.uint64(j_hi)):
+            b = max(b_row - dz2h[j], 0.0)
+            wz[j] = w_row * gz[j] * np.sqrt(b) * _estrin(row, b * y_scale - 1.0)
+    else:
+        b_0 = piece * width
+        for j in range(np.uint64(j_lo), np.uint64(j_hi)):
+            b = b_row - dz2h[j]
+            if b >= b_0:
+                wz[j] = w_row * gz[j] * np.sqrt(b) * _estrin(row, (b - b_0) * y_scale - 1.0)
 
 
 @njit(inline="always", **_JIT)
@@ -244,17 +259,22 @@ def _near_J(b, a, inv_2a, full, e_a, near_u, near_v, ia, l0, l1, l2, l3, u_scale
 
 
 @njit(**_JIT)
-def _J_pairs(a_arr, b_arr, C, a_split, far, eps_scale, t_scale, near_u, near_v, near_end, a_scale, u_scale, out):
+def _J_pairs(a_arr, b_arr, C, a_split, far, eps_scale, y_scale, near_u, near_v, near_end, a_scale, u_scale, out):
     """J(a, b) pair by pair (test hook of the interpolation used in the deposit)."""
     n_a = near_u.shape[0] - 3
+    width = 2.0 / y_scale
+    row = np.zeros(_FAR_TERMS)
     for p in range(a_arr.shape[0]):
         a, b = a_arr[p], b_arr[p]
         if b <= 0.0:
             out[p] = 0.0
         elif a >= a_split:
+            b = min(b, C)
             fe = eps_scale / a
-            ie = np.int64(fe)
-            out[p] = _far_K(far, np.uint64(ie), fe - ie, np.sqrt(min(b, C)) * t_scale) / np.sqrt(a)
+            ie = np.uint64(fe)
+            piece = min(np.uint64(b / width), np.uint64(far.shape[0] - 1))
+            _far_row(far, piece, ie, fe - ie, row)
+            out[p] = np.sqrt(b) * _estrin(row, (b - piece * width) * y_scale - 1.0) / np.sqrt(a)
         else:
             ia, l0, l1, l2, l3 = _near_row(a, a_scale, n_a)
             e_a = np.exp(-a)
@@ -311,7 +331,7 @@ def _visiting_order(r, z, groups, n_groups, r0, hr, n_r, z0, hz, n_z):
 
 @njit(**_JIT)
 def _deposit_particles(order, start, stop, r, z, values, groups, grid, kernel, tables, inv_r, inv_sqrt_r, gz, dz2h,
-                       wz, q, out):
+                       wz, row, q, out):
     """Add particles ``order[start:stop]`` into ``out`` of shape (groups, n_r, n_z, K padded), flat.
 
     ``grid`` is ``(r0, hr, n_r, z0, hz, n_z)``: uniform node axes ``r0 + m hr``
@@ -322,11 +342,12 @@ def _deposit_particles(order, start, stop, r, z, values, groups, grid, kernel, t
     ``(1/2 sigma^2, C, 1/pi Z)``, ``tables`` is :meth:`RZTables._args` without
     C. ``inv_r`` and ``inv_sqrt_r`` hold :math:`1/r_n` and :math:`r_n^{-1/2}`
     (0 on the axis); ``gz``, ``dz2h`` and ``wz`` are scratch arrays of length
-    n_z, ``q`` of the padded K.
+    n_z, ``row`` of :data:`_FAR_TERMS` and ``q`` of the padded K.
     """
     r0, hr, n_r, z0, hz, n_z = grid
     half_inv_var, C, norm = kernel
-    a_split, far, eps_scale, t_scale, near_u, near_v, near_end, a_scale, u_scale = tables
+    a_split, far, eps_scale, y_scale, near_u, near_v, near_end, a_scale, u_scale = tables
+    width = 2.0 / y_scale  # of a piece of the far polynomials in b
     n_k = values.shape[1]
     n_pad = q.shape[0]
     n_a = near_u.shape[0] - 3
@@ -389,12 +410,11 @@ def _deposit_particles(order, start, stop, r, z, values, groups, grid, kernel, t
                 ie = np.int64(fe)
                 fe -= ie
                 w_row = g_row * inv_sqrt_r[m] * inv_sqrt_ri  # times 1 / sqrt(a)
-                # two passes: t with vectorised square roots, then the table lookups, whose
-                # dependency chains overlap once nothing else waits on them
-                for j in range(np.uint64(j_lo), np.uint64(j_hi)):
-                    wz[j] = np.sqrt(max(b_row - dz2h[j], 0.0)) * t_scale
-                for j in range(np.uint64(j_lo), np.uint64(j_hi)):
-                    wz[j] = w_row * gz[j] * _far_K(far, np.uint64(ie), fe, wz[j])
+                for piece in range(far.shape[0]):  # one piece unless C > FAR_PIECE
+                    if piece * width >= b_row:
+                        break
+                    _far_row(far, np.uint64(piece), np.uint64(ie), fe, row)
+                    _far_weights(wz, row, piece, width, y_scale, b_row, w_row, dz2h, gz, j_lo, j_hi)
             else:
                 ia, l0, l1, l2, l3 = _near_row(a, a_scale, n_a)
                 e_a = np.exp(-a)
@@ -443,8 +463,8 @@ def _deposit_worker(worker, counters, order, r, z, values, groups, grid, kernel,
     """
     n_z = grid[5]
     n_pad = -(-values.shape[1] // _BLOCK) * _BLOCK
-    q = scratch[:n_pad]
-    gz, dz2h, wz = scratch[n_pad:n_pad + n_z], scratch[n_pad + n_z:n_pad + 2 * n_z], scratch[n_pad + 2 * n_z:]
+    q, row = scratch[:n_pad], scratch[-_FAR_TERMS:]  # row: zeros beyond the far polynomials' terms
+    gz, dz2h, wz = scratch[n_pad:][:n_z], scratch[n_pad + n_z:][:n_z], scratch[n_pad + 2 * n_z:][:n_z]
     n, n_workers = r.shape[0], counters.shape[0] // 8
     for i in range(n_workers):
         stretch = (worker + i) % n_workers
@@ -452,7 +472,7 @@ def _deposit_worker(worker, counters, order, r, z, values, groups, grid, kernel,
         start = _fetch_add(counters[8 * stretch:], CHUNK)
         while start < stop:
             _deposit_particles(order, start, min(start + CHUNK, stop), r, z, values, groups, grid, kernel, tables,
-                               inv_r, inv_sqrt_r, gz, dz2h, wz, q, buffer)
+                               inv_r, inv_sqrt_r, gz, dz2h, wz, row, q, buffer)
             start = _fetch_add(counters[8 * stretch:], CHUNK)
 
 
@@ -494,7 +514,7 @@ def _deposit_threads(r, z, values, groups, n_groups, grid, kernel, tables, n_wor
     # rows on cache lines of their own: 4-wide additions never straddle two lines, and no line
     # is shared between workers (it would bounce between the cores)
     buffers = _aligned_zeros(n_workers, size)
-    scratch = _aligned_zeros(n_workers, n_pad + 3 * n_z)
+    scratch = _aligned_zeros(n_workers, n_pad + _FAR_TERMS + 3 * n_z)
     # the next particle of each worker's stretch of the order, a cache line per counter
     counters = _aligned_zeros(1, 8 * n_workers)[0].view(np.int64)
     counters[::8] = (len(r) * np.arange(n_workers)) // n_workers

@@ -1,6 +1,7 @@
 # granflow: two commands on a fresh machine.
 #   make demo  - create .venv, install everything, run the default campaign on 2 cores
 #   make test  - create .venv if missing, install, run the test suite
+#   make test-thorough - the same suite with 20x the property-test examples from a fresh seed
 #   make test-slurm - the cluster path: a one-node SLURM cluster on localhost (root), the smoke campaign through profiles/slurm
 PYTHON ?= python3
 VENV   := .venv
@@ -8,11 +9,13 @@ BIN    := $(VENV)/bin
 CORES  ?= 2
 STAMP  := $(VENV)/.installed
 
-.PHONY: venv demo test test-slurm report cost validate bench clean-results help
+.PHONY: venv demo test test-thorough test-slurm report cost validate bench clean-results help
 
 help:
 	@echo "make demo   - install into .venv and run the default campaign (snakemake --cores $(CORES))"
-	@echo "make test   - install into .venv and run the tests"
+	@echo "make test   - install into .venv and run the tests (property tests: a fixed, seeded budget)"
+	@echo "make test-thorough - the same tests, property tests with 20x the examples from a fresh random seed"
+	@echo "              (GRANFLOW_THOROUGH=1; a failure prints how to reproduce it)"
 	@echo "make test-slurm - start a one-node SLURM cluster on localhost (root; installs Debian's slurm if missing),"
 	@echo "              run the smoke campaign through profiles/slurm, compare it with a local run, stop the cluster"
 	@echo "make report - build report.html from finished results (runs what is missing first)"
@@ -44,6 +47,10 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	PATH="$(CURDIR)/$(BIN):$$PATH" $(BIN)/python -m pytest -q
+
+# the Hypothesis profile granflow-thorough (tests/conftest.py): 20x the examples, a new seed each run
+test-thorough: $(STAMP)
+	GRANFLOW_THOROUGH=1 PATH="$(CURDIR)/$(BIN):$$PATH" $(BIN)/python -m pytest -q
 
 test-slurm: $(STAMP)
 	bash tests/slurm/run.sh

@@ -2,6 +2,7 @@
 leaves nothing downstream marked complete."""
 import copy
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -28,12 +29,22 @@ def two_segment_scene(scene):
     return s
 
 
-def test_killed_run_resumes_and_agrees(channel_scene, tmp_path):
+@pytest.fixture(scope="module")
+def finished_two_segment_run(channel_scene, tmp_path_factory) -> Path:
+    """One uninterrupted run of the two-segment smoke case (phi = 0.58, one rank), shared: the
+    reference of the resumed run and the source of the dump the truncation test damages (on its
+    own copy). Tests only read it."""
+    ref = tmp_path_factory.mktemp("faults") / "ref"
+    render_case(two_segment_scene(channel_scene), "smoke", ref, {"phi_mean": 0.58})
+    status = run_case(ref, 1)
+    assert status["average_segments"] == 2, status
+    return ref
+
+
+def test_killed_run_resumes_and_agrees(channel_scene, tmp_path, finished_two_segment_run):
     scene = two_segment_scene(channel_scene)
-    ref, killed = tmp_path / "ref", tmp_path / "killed"
-    render_case(scene, "smoke", ref, {"phi_mean": 0.58})
+    ref, killed = finished_two_segment_run, tmp_path / "killed"
     render_case(scene, "smoke", killed, {"phi_mean": 0.58})
-    run_case(ref, 1)
 
     proc = subprocess.Popen([str(BIN / "granflow"), "run", str(killed), "--np", "1"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
@@ -103,16 +114,16 @@ def test_sigterm_to_the_runner_alone_stops_lammps_too(channel_scene, tmp_path):
     assert not (tmp_path / "run" / "flow_001.restart").exists()
 
 
-def test_truncated_dump_fails_naming_file_and_frame(channel_scene, tmp_path):
-    scene = two_segment_scene(channel_scene)
-    render_case(scene, "smoke", tmp_path, {"phi_mean": 0.58})
-    run_case(tmp_path, 1)
-    dump = tmp_path / "run" / "dump_002.bin"
+def test_truncated_dump_fails_naming_file_and_frame(finished_two_segment_run, tmp_path):
+    case = tmp_path / "case"
+    shutil.copytree(finished_two_segment_run, case)  # the shared run stays whole
+    channel_profile(case)  # whole, it reads
+    dump = case / "run" / "dump_002.bin"
     size = dump.stat().st_size
     with open(dump, "r+b") as f:
         f.truncate(size - 1000)
     with pytest.raises(DumpError) as exc:
-        channel_profile(tmp_path)
+        channel_profile(case)
     msg = str(exc.value)
     assert "dump_002.bin" in msg and "frame" in msg and "truncated" in msg
 

@@ -99,7 +99,7 @@ def test_fold_signs_values_and_errors(W):
 def test_fold_rejects_asymmetric_bins():
     df = make_profile(100.0)
     df.loc[0, "x_hi"] = 1.4
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="bins are not symmetric about W/2; cannot fold"):
         ch.fold_profile(df, 100.0)
 
 

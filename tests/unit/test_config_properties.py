@@ -10,11 +10,17 @@ refused with a :class:`~granflow.config.ConfigError` (or
 :class:`~granflow.preflight.PreflightError`) naming the dotted key and the value, and no other
 exception may escape. The command line is checked the same way on drawn keys: exit 2,
 "refused" with the key, no traceback, nothing written. Two further properties: a value at
-the edge of its range is accepted or refused, never a crash; a cost-study knob value meets
-the bounds of the scene key it sets.
+the edge of its range, applied to a case its rung accepts, is either accepted (the loaded
+scene holds exactly that value and the deck's numbers are finite) or refused naming the
+file, the key or the rung, and the bound; a cost-study knob value meets the bounds of the
+scene key it sets.
 
-Run with ``pytest tests/unit/test_config_properties.py --hypothesis-show-statistics`` to see
-how many examples each test drew.
+Fixed lists of cases (every key's NaN, infinities, edges, huge values; the in-range edges)
+are each tried once, in a loop. Drawn cases come from Hypothesis with a fixed, seeded budget
+in ``make test`` (profile ``granflow``, tests/conftest.py) and 20 times that from a fresh
+seed in ``make test-thorough`` (``GRANFLOW_THOROUGH=1``). Run with
+``pytest tests/unit/test_config_properties.py --hypothesis-show-statistics`` to see how many
+examples each test drew.
 """
 from __future__ import annotations
 
@@ -23,6 +29,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,10 +52,15 @@ CAMPAIGN = CONFIG_DIR / "config.yaml"
 SCENES = ("channel", "heap", "silo", "chute")
 REFUSED = (ConfigError, PreflightError)
 
-#: seeded (derandomize) and writing no example database into the work tree; a refusal takes
-#: ~4 ms once the files are parsed, so the deadline is off only to spare slow CI machines
-PROPERTY = settings(deadline=None, database=None, derandomize=True,
-                    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+#: seeded (derandomized) or not, example database and deadline (none) come from the profile
+#: loaded by tests/conftest.py; a refusal takes ~4 ms once the files are parsed
+PROPERTY = settings(suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+
+
+def examples(n: int) -> int:
+    """A drawing test's budget: ``n`` examples in ``make test`` (the ``granflow`` profile's
+    ``max_examples`` is 100), 20 times as many in ``make test-thorough``."""
+    return max(1, n * settings.default.max_examples // 100)
 
 NONFINITE = (math.nan, math.inf, -math.inf)
 #: huge magnitudes, float and integer (the largest double last): the first two are tried at
@@ -56,8 +68,7 @@ NONFINITE = (math.nan, math.inf, -math.inf)
 HUGE = (1e300, 10**30, -1e300, -10**30, 1.7976931348623157e308)
 #: an integer no double can hold (``math.isfinite`` raises OverflowError on it)
 BEYOND_FLOAT = 10**400
-#: for tests over a fixed list of cases: raise the first failure as it is, without shrinking
-#: a list that has no simpler case
+#: raise the first failure as it is, without shrinking (a longer literal is no simpler case)
 FIRST_FAILURE = {"report_multiple_bugs": False, "phases": (Phase.explicit, Phase.generate)}
 
 
@@ -435,6 +446,20 @@ def assert_refused(key: NumericKey, value, file_data: dict) -> str:
     return msg
 
 
+def check_each(cases: list, check) -> None:
+    """``check(key, value)`` on every case, each once; fail naming every case that failed. An
+    exception other than an AssertionError stops at once, chained to the case it escaped from."""
+    failed = []
+    for key, value in cases:
+        try:
+            check(key, value)
+        except AssertionError as exc:
+            failed.append(f"{key} = {value!r}: {exc}")
+        except Exception as exc:  # noqa: BLE001 - named with its case, then failed
+            raise AssertionError(f"{key} = {value!r}: {type(exc).__name__} escaped: {exc}") from exc
+    assert not failed, f"{len(failed)} of {len(cases)} cases failed:\n" + "\n".join(failed)
+
+
 # ------------------------------------------------------------------------------ fixtures
 def _tree_digest(path: Path) -> dict:
     return {str(p.relative_to(path)): hashlib.sha256(p.read_bytes()).hexdigest()
@@ -518,15 +543,71 @@ def test_every_numeric_key_is_bounded():
     assert not unbounded, unbounded
 
 
-def test_the_real_files_are_valid(parse_once):
-    """The values the refusals are measured against are themselves accepted."""
+#: a case each rung accepts with the files as they stand: the scene's own case, except where it
+#: does not fit the smoke rung (the heap's 0.033 kg/s overfills its feed region, the silo's
+#: R = 6 r_b does not fit its R_c = 6 r_b); the integration tests' smoke runs use these values
+BASE_CASES = {("heap", "smoke"): {"feed_rate": 0.003}, ("silo", "smoke"): {"R": 4.0}}
+#: size limits every rung of the real files meets (the default, a week of this machine's cores,
+#: refuses the channel's and the silo's paper rungs on 2 cores), so that a refusal in
+#: test_in_range_extremes_are_accepted_or_refused is the edge value's doing
+LIMITS = {"max_cpu_hours": 1e5, "memory_mb": 10**7}
+
+
+def _particles(estimate) -> int:
+    """The particle count of what :func:`check_size` returns (an estimate, or the count itself)."""
+    return getattr(estimate, "particles", estimate)
+
+
+def test_the_real_files_are_valid(file_data, parse_once):
+    """The values the refusals are measured against are themselves accepted: each loader hands
+    back every numeric value of its file unchanged (value and type), and every rung of every
+    scene passes the size check and gives finite deck numbers at its base case."""
     for scene in SCENES:
-        load_scene(CONFIG_DIR / "scenes" / f"{scene}.yaml")
-    load_campaign(CAMPAIGN, root=ROOT)
+        path = CONFIG_DIR / "scenes" / f"{scene}.yaml"
+        loaded = load_scene(path)
+        for key in KEYS_BY_FILE[scene]:
+            _assert_same_value(loaded, file_data[scene], key)
+        for rung in loaded["rungs"]:
+            case = BASE_CASES.get((scene, rung))
+            n = _particles(check_size(scene, loaded, rung, case, LIMITS, str(path), f"{scene} at rung {rung}"))
+            assert isinstance(n, int) and n > 0, (scene, rung, n)
+            _assert_finite_deck(*scene_parameters(loaded, rung, case), f"{scene} at rung {rung}")
+    loaded = load_campaign(CAMPAIGN, root=ROOT)
+    for key in KEYS_BY_FILE["config"]:
+        _assert_same_value(loaded, file_data["config"], key)
+
+
+def _assert_same_value(loaded: dict, data: dict, key: NumericKey) -> None:
+    """The loaded tree holds the file's value at ``key`` (or lacks it, as the file does)."""
+    try:
+        want = _get(data, key.path)
+    except (KeyError, IndexError, TypeError):
+        return
+    got = _get(loaded, key.path)
+    assert got == want and type(got) is type(want), f"{key}: file {want!r}, loaded {got!r}"
+
+
+def _assert_finite_deck(params, context, label: str) -> None:
+    """Every deck number is a finite int or float, and the parameter record (params.json) holds no NaN."""
+    for p in params:
+        assert type(p.value) in (int, float) and math.isfinite(p.value), f"{label}: deck variable {p.name} = {p.value!r}"
+
+    def nans(node, where):
+        if isinstance(node, dict):
+            for k, v in node.items():
+                yield from nans(v, f"{where}.{k}")
+        elif isinstance(node, (list, tuple)):
+            for i, v in enumerate(node):
+                yield from nans(v, f"{where}[{i}]")
+        elif isinstance(node, float) and math.isnan(node):
+            yield where
+
+    found = list(nans(context["record"], "record"))
+    assert not found, f"{label}: NaN in the parameter record at {found}"
 
 
 # ------------------------------------------------------------------- the properties
-@settings(PROPERTY, max_examples=300)
+@settings(PROPERTY, max_examples=examples(300))
 @given(data=st.data())
 def test_overrides_carry_the_drawn_value(data, file_data):
     """The ``--set`` text the tests build reads back as exactly the drawn value at the key
@@ -561,18 +642,14 @@ def _fixed_cases(keys: list) -> list:
 
 
 @pytest.mark.parametrize("keys", DECLARATIONS.values(), ids=DECLARATIONS.keys())
-@settings(PROPERTY, max_examples=max(len(_fixed_cases(g)) for g in DECLARATIONS.values()))
-@given(data=st.data())
-def test_nonfinite_edge_and_huge_values_are_refused(keys, data, file_data, parse_once):
+def test_nonfinite_edge_and_huge_values_are_refused(keys, file_data, parse_once):
     """NaN, +inf, -inf, one step outside each bound, 1e300, 10**30, ``true`` and ``"1"``, at
-    every key (see :func:`_fixed_cases`); Hypothesis stops when the list is exhausted, so each
-    is tried once."""
-    key, value = data.draw(st.sampled_from(_fixed_cases(keys)), label="key, value")
-    assert_refused(key, value, file_data[key.file])
+    every key (see :func:`_fixed_cases`), each once."""
+    check_each(_fixed_cases(keys), lambda key, value: assert_refused(key, value, file_data[key.file]))
 
 
 @pytest.mark.parametrize("keys", DECLARATIONS.values(), ids=DECLARATIONS.keys())
-@settings(PROPERTY, max_examples=5)
+@settings(PROPERTY, max_examples=examples(5))
 @given(data=st.data())
 def test_out_of_range_and_wrong_types_are_refused(keys, data, file_data, parse_once):
     """Drawn, at a drawn key of the declaration: finite or huge numbers anywhere outside the
@@ -587,19 +664,16 @@ def test_out_of_range_and_wrong_types_are_refused(keys, data, file_data, parse_o
 BEYOND_FLOAT_CASES = [(keys[0], sign * BEYOND_FLOAT) for keys in DECLARATIONS.values() for sign in (1, -1)]
 
 
-@settings(PROPERTY, max_examples=len(BEYOND_FLOAT_CASES) + 1, **FIRST_FAILURE)
-@given(data=st.data())
-def test_integers_beyond_the_float_range_are_refused(data, file_data, parse_once):
+def test_integers_beyond_the_float_range_are_refused(file_data, parse_once):
     """YAML reads ``1`` followed by 400 zeros as a Python int, larger than any double: refused
     at the first key of every declaration, either sign (every case once)."""
-    key, value = data.draw(st.sampled_from(BEYOND_FLOAT_CASES), label="key, value")
-    assert_refused(key, value, file_data[key.file])
+    check_each(BEYOND_FLOAT_CASES, lambda key, value: assert_refused(key, value, file_data[key.file]))
 
 
 DIRECT_KEYS = [keys[0] for keys in DECLARATIONS.values() if _cut(keys[0]) == len(keys[0].path)]
 
 
-@settings(PROPERTY, max_examples=10, **FIRST_FAILURE)
+@settings(PROPERTY, max_examples=examples(10), **FIRST_FAILURE)
 @given(data=st.data(), digits=st.integers(min_value=4301, max_value=20000), in_file=st.booleans())
 def test_integer_literals_too_long_to_read_are_refused(data, digits, in_file, tmp_path, file_data, parse_once):
     """An integer literal longer than Python converts (4300 digits), in the file or in ``--set``:
@@ -639,22 +713,57 @@ def _in_range_params() -> list:
     return [pytest.param(keys, id=name) for name, keys in DECLARATIONS.items() if keys[0].kind == "scene"]
 
 
-@pytest.mark.parametrize("keys", _in_range_params())
-@settings(PROPERTY, **FIRST_FAILURE)
-@given(data=st.data())
-def test_in_range_extremes_are_accepted_or_refused(keys, data, file_data, parse_once):
-    """The edge of the range is a value too: what ``granflow render`` does before it writes
-    (load, size check, deck parameters with their preflight) accepts it or refuses it with a
-    ConfigError or PreflightError; no other exception. At the rung the key belongs to, else demo."""
-    key = keys[0]
-    value = data.draw(st.sampled_from(in_range_extremes(key)), label="value")
+def _names_key(msg: str, key: NumericKey) -> bool:
+    """The refusal names the key: its own name (``t_segment``, ``number_fractions`` for an
+    item of that array) as a word, as cross-key refusals do (``dump_interval = 1.0: allowed <=
+    t_average = 1e-12``)."""
+    name = next(p for p in reversed(key.path) if isinstance(p, str))
+    return re.search(rf"(?<!\w){re.escape(name)}(?!\w)", msg) is not None
+
+
+def assert_in_range_outcome(key: NumericKey, value, file_data: dict) -> None:
+    """What ``granflow render`` does before it writes (load, size check, deck parameters with
+    their preflight), at the key's rung (else demo) and a case that rung accepts unchanged
+    (:data:`BASE_CASES`), with ``value`` at ``key``: either accepted, and then the loaded scene
+    holds exactly ``value`` (same type) and the deck's numbers are finite; or refused with a
+    ConfigError or PreflightError that names the bound ("allowed" or "limit") and the file and
+    the key (load), the scene at its rung (size check) or the key (deck parameters). No other
+    exception."""
     rung = key.path[1] if key.path[0] == "rungs" else "demo"
+    case, label = BASE_CASES.get((key.file, rung)), f"{key.file} at rung {rung}"
+    text = override(file_data, key, value)
     try:
-        scene = load_scene(_file(key), [override(file_data[key.file], key, value)])
-        check_size(key.file, scene, rung, None, None, str(_file(key)), f"{key.file} at rung {rung}")
-        scene_parameters(scene, rung)
-    except REFUSED:
-        pass
+        scene = load_scene(_file(key), [text])
+    except REFUSED as exc:
+        msg = str(exc)
+        assert msg.startswith(f"{_file(key)}: ") and ("allowed" in msg or "limit" in msg), msg
+        assert _names_key(msg, key), f"the load refusal does not name {key}: {msg}"
+        return
+    got = _get(scene, key.path)
+    assert got == value and type(got) is type(value), f"--set {text} loaded as {got!r}"
+    try:
+        n = _particles(check_size(key.file, scene, rung, case, LIMITS, str(_file(key)), label))
+    except REFUSED as exc:
+        msg = str(exc)
+        assert label in msg and ("allowed" in msg or "limit" in msg), msg
+        return
+    assert isinstance(n, int) and n > 0, f"--set {text}: {n!r} particles"
+    try:  # the size check derives the parameters of most scenes already; the silo's counts by formula
+        params, context = scene_parameters(scene, rung, case)
+    except REFUSED as exc:
+        msg = str(exc)
+        assert ("allowed" in msg or "limit" in msg) and _names_key(msg, key), msg
+        return
+    _assert_finite_deck(params, context, f"--set {text}")
+
+
+@pytest.mark.parametrize("keys", _in_range_params())
+def test_in_range_extremes_are_accepted_or_refused(keys, file_data, parse_once):
+    """The edge of the range is a value too: each of :func:`in_range_extremes` at the first key
+    of the declaration, once, gives one of the outcomes of :func:`assert_in_range_outcome`."""
+    key = keys[0]
+    check_each([(key, v) for v in in_range_extremes(key)],
+               lambda key, value: assert_in_range_outcome(key, value, file_data[key.file]))
 
 
 @pytest.mark.parametrize("scene", SCENES)
@@ -697,7 +806,7 @@ def _assert_cli_refused(rc, err, key, value, argv):
         assert needle in err, (needle, err)
 
 
-@settings(PROPERTY, max_examples=25)
+@settings(PROPERTY, max_examples=examples(25))
 @given(data=st.data(), in_file=st.booleans())
 def test_check_config_refuses_and_writes_nothing(data, in_file, capsys, monkeypatch, workdir, file_data):
     """``granflow check-config FILE --set KEY=VALUE``, or the value written into the file:
@@ -722,7 +831,7 @@ def test_check_config_refuses_and_writes_nothing(data, in_file, capsys, monkeypa
         target.unlink()
 
 
-@settings(PROPERTY, max_examples=25)
+@settings(PROPERTY, max_examples=examples(25))
 @given(data=st.data())
 def test_render_refuses_and_writes_nothing(data, capsys, monkeypatch, tmp_path, file_data):
     """``granflow render SCENE --rung smoke --out DIR --set KEY=VALUE``: refused, DIR not created."""

@@ -99,5 +99,5 @@ def test_constant_field_has_zero_error():
 
 def test_block_errors_read_before_conclude_raise():
     acc = FieldAccumulator(HeavisideBins([np.array([0.0, L])]), XCoordinates(walls=(0.0, L)))
-    with pytest.raises(RuntimeError):
+    with pytest.raises(RuntimeError, match=r"block_errors read before conclude\(\)"):
         acc.block_errors

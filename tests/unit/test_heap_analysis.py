@@ -220,12 +220,12 @@ def test_rigid_downhill_translation_gives_uniform_velocity_and_no_fluctuation():
     x0 = rng.uniform(0.0, 0.4, N)
     z = rng.uniform(-0.019, -0.001, N)  # whole spheres inside the z range
     acc = hp.KinematicsAccumulator(x_edges, z_edges, T=0.013, n_types=2, n_blocks=4)
-    with pytest.raises(RuntimeError):
+    with pytest.raises(RuntimeError, match=r"accumulate\(\) called before prepare\(\)"):
         acc.accumulate(x0, z, np.full(N, U), np.zeros(N), radius, kind)
     acc.prepare()
-    with pytest.raises(RuntimeError):
+    with pytest.raises(RuntimeError, match=r"result read before conclude\(\)"):
         acc.result
-    with pytest.raises(RuntimeError):
+    with pytest.raises(RuntimeError, match=r"conclude\(\) called before any frame was accumulated"):
         acc.conclude()
     for k in range(n_frames):
         x = (x0 + U * k * 0.01) % 0.4  # rigid translation downhill, re-entering upstream
@@ -275,7 +275,7 @@ def test_kinematics_weights_a_particle_by_its_volume_in_each_bin():
     assert_allclose(res["n"], [0, 1, 0, 1, 0, 0])
     assert_allclose(res["d_mean"].to_numpy()[[1, 3]], [2 * r, 2 * r2], rtol=1e-12)
     acc.prepare()
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"particle types \[3\] outside 1\.\.2"):
         acc.accumulate([0.01], [-0.002], [1.0], [0.0], [r], [3])  # type outside 1..n_types
 
 

@@ -128,11 +128,27 @@ def test_targets_outside_the_campaign_are_refused(target, needle):
     assert needle in str(exc.value) and target in str(exc.value)
 
 
-def test_campaign_targets_pass(tmp_path):
-    check_targets(["all", "results/channel/demo/W~20/phi~0.6/run/status.json", "results/channel/demo/table.csv",
-                   "results/report/x.csv", "elsewhere/W~1/file", "results/cost/channel/runs/size~1.5/params.json",
-                   str(tmp_path / "results/channel/demo/W~99/x")],  # absolute, outside the working directory
-                  "results", "demo", CASES, ["channel", "silo"], {"channel": (["base", "size~1.5"], ["base"])})
+@pytest.mark.parametrize("target, examined", [
+    ("results/channel/demo/W~20/phi~0.6/run/status.json", True),
+    ("results/channel/demo/table.csv", True),
+    ("results/cost/channel/runs/size~1.5/params.json", True),
+    ("all", False),                          # a rule name
+    ("results/report/x.csv", False),         # under results, not a scene's
+    ("elsewhere/W~1/file", False),           # outside results
+    ("{tmp}/results/channel/demo/W~99/x", False),  # absolute, outside the working directory
+])
+def test_campaign_targets_pass(target, examined, tmp_path):
+    """A target of the campaign passes; it passes because the campaign lists it (refused, naming
+    it, by a campaign without that scene and cost study), while a rule name or a path outside
+    the scenes' results passes any campaign (it is not examined)."""
+    target = target.format(tmp=tmp_path)
+    check_targets([target], "results", "demo", CASES, ["channel", "silo"], {"channel": (["base", "size~1.5"], ["base"])})
+    if examined:
+        with pytest.raises(ConfigError) as exc:
+            check_targets([target], "results", "demo", {}, ["channel", "silo"], {})
+        assert f"target {target}: " in str(exc.value) and "channel" in str(exc.value), str(exc.value)
+    else:
+        check_targets([target], "results", "demo", {}, ["channel", "silo"], {})
 
 
 def test_snakemake_command_line_targets_are_read():

@@ -52,12 +52,12 @@ def chute_parameters(scene: dict, rung_name: str, case: dict | None = None) -> t
     PreflightError
         If the time step does not resolve a contact, or the skin is too small.
     ConfigError
-        If the angle is outside 0 < theta < 90 degrees.
+        If the angle is outside 0 < theta <= 60 degrees.
     """
     rung = check_rung(scene, rung_name)
     case = dict(scene["case"], **(case or {}))
     theta = float(case["theta_deg"])
-    if not 0.0 < theta < 60.0:
+    if not 0.0 < theta <= 60.0:
         raise ConfigError(f"case.theta_deg = {theta:g} is not allowed: allowed 0 < theta_deg <= 60")
     model = contact_model(scene, rung)
     dt = time_step(rung, model)

@@ -55,10 +55,6 @@ class SteadyState:
     slope: float
     reason: str
 
-    @property
-    def is_steady(self) -> bool:
-        return self.status == STEADY
-
 
 def _segment_statistics(t: np.ndarray, u: np.ndarray) -> tuple[float, float, float, float]:
     """Mean, relative fluctuation, slope and relative drift of one segment.

@@ -41,11 +41,6 @@ RUNG = CAMPAIGN["rung"]
 SCENES = {name: registry.get(name) for name, sc in CAMPAIGN["scenes"].items() if sc.get("enabled", True)}
 
 
-def fmt(value):
-    """Directory-name form of a number: 20.0 -> '20', 0.6 -> '0.6'."""
-    return f"{float(value):g}"
-
-
 def scene_cases(name):
     """Relative case directories (e.g. 'W~20/phi~0.6') of every sweep point of scene `name`."""
     sc = CAMPAIGN["scenes"][name]

@@ -37,12 +37,10 @@ Conventions
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Iterable
 
 import numpy as np
 import pandas as pd
 
-from postproc.frame import ParticleFrame
 from postproc.overlap import _fraction_below, _slab_pairs, sphere_slab_fraction  # noqa: F401
 
 #: Volume-fraction cutoff of the free surface, :math:`f_c` (paper, section 3.1).
@@ -313,31 +311,6 @@ def bed_volume_fraction(phi, z_edges, z_s, depth_lo: float, depth_hi: float, *,
     count = inside.sum(axis=1)
     total = np.where(inside, phi, 0.0).sum(axis=1)
     return np.divide(total, count, out=np.full(len(count), np.nan), where=count > 0)
-
-
-def surface_history(frames: Iterable[ParticleFrame], geometry: HeapGeometry, dt: float, dx: float,
-                    dz: float, z_lo: float, z_hi: float, phi_c: float = PHI_C):
-    """Free surface of every frame.
-
-    Returns
-    -------
-    t : ndarray, shape (n_t,)
-        Frame times ``timestep * dt``, s.
-    x_lab : ndarray, shape (n_x,)
-        Column centres, m.
-    z_s : ndarray, shape (n_t, n_x)
-        :func:`free_surface` of :func:`volume_fraction_columns` per frame.
-    """
-    t, rows, x_edges = [], [], None
-    for frame in frames:
-        phi, x_edges, z_edges = volume_fraction_columns(frame.position, frame.radius, geometry,
-                                                        dx, dz, z_lo, z_hi)
-        t.append(frame.timestep * dt)
-        rows.append(free_surface(phi, z_edges, phi_c))
-    if x_edges is None:
-        x_edges = uniform_edges(0.0, geometry.W, dx)
-    x_lab = 0.5 * (x_edges[1:] + x_edges[:-1])
-    return np.asarray(t, float), x_lab, np.asarray(rows, float).reshape(len(t), len(x_lab))
 
 
 def surface_table(t, x_lab, z_s) -> pd.DataFrame:

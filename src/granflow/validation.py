@@ -243,9 +243,15 @@ def _clean(value):
     return value
 
 
+#: files of ``validation/<scene>/`` written by other tools (``tools/ladder.py record``) that a rewrite of the
+#: record keeps: the ladder is measured on other runs than the record's cases
+KEPT_FILES = ("ladder.csv", "ladder.md", "figures/ladder.png")
+
+
 def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs: dict[str, Path],
                  figures_dir: Path, out: Path, paper: str = "") -> dict:
-    """Write ``out`` = ``validation/<scene>/``: summary.json, checks.csv, profiles, figures, logs.
+    """Write ``out`` = ``validation/<scene>/``: summary.json, checks.csv, profiles, figures, logs
+    (everything else there is replaced, but for :data:`KEPT_FILES`).
 
     ``case_dirs`` maps each case's directory name (e.g. ``W~60/phi~0.6``) to its path.
 
@@ -257,11 +263,14 @@ def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs
     files = record_git["dirty_files"]
     record_dirty = ([f for f in files if not f.startswith("validation/")] if isinstance(files, list)
                     else record_git["dirty"])
+    kept = {name: (out / name).read_bytes() for name in KEPT_FILES if (out / name).is_file()}
     if out.exists():
         shutil.rmtree(out)
     (out / "profiles").mkdir(parents=True)
     (out / "figures").mkdir()
     (out / "logs").mkdir()
+    for name, data in kept.items():
+        (out / name).write_bytes(data)
     cases = [dict(dir=rel, **case_summary(Path(path))) for rel, path in case_dirs.items()]
     checks = [asdict(c) for c in result.checks]
     pd.DataFrame(checks).to_csv(out / "checks.csv", index=False)

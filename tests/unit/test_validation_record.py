@@ -106,6 +106,10 @@ def test_record_and_readme(tmp_path):
     assert "| toy | ratio | 1.37-1.40 (Fig. 5c) | 1.210 ± 0.010 | x~1 |" in text
     assert "differs by -11.7 %" in text and "thin box: B = 5 instead of 40" in text
     assert "| toy | x~2 | steady | 1000 | 2.00 % | 2.00 |" in text
+    # a rewrite of the record keeps the ladder (measured on other runs) and nothing else of the old folder
+    (out / "stale.csv").write_text("old\n")
+    validation.write_record("toy", "validation", result, cases, figs, out, paper="Someone 2020")
+    assert (out / "ladder.md").read_text().startswith("### toy: ladder") and not (out / "stale.csv").exists()
 
 
 def test_a_record_over_the_size_limit_is_refused(tmp_path, monkeypatch):

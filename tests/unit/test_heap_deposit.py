@@ -38,3 +38,18 @@ def test_the_range_leaves_out_the_pool_and_empty_columns_count_nothing():
     without = deposit_contrast(dep, 0.02, 0.11, "volume")
     assert whole["downstream"] > without["downstream"]
     assert without["n"] == int(dep["n"].iloc[1:9].sum())
+
+
+def test_species_flux_above_the_surface_from_a_known_profile():
+    """Species 1 sits half above the surface, species 2 all below; u = 1 everywhere: shares 1/2 and 0."""
+    import granflow.scenes.heap.analysis as hp
+
+    z_lo = np.array([-2e-3, -1e-3, 0.0, 1e-3])
+    rows = pd.DataFrame({"x": 0.05, "z": z_lo + 5e-4, "z_lo": z_lo, "z_hi": z_lo + 1e-3, "u": 1.0,
+                         "phi_1": [0.0, 0.3, 0.2, 0.1], "phi_2": [0.5, 0.3, 0.0, 0.0]})
+    f = hp.species_flux_above(rows, 2)
+    assert f["flux_above_surface_1"] == pytest.approx(0.5) and f["flux_above_surface_2"] == 0.0
+    g = hp.species_flux_above(rows, 2, z_above=1e-3, name="flux_above_d_max")
+    assert g["flux_above_d_max_1"] == pytest.approx(1 / 6)
+    still = rows.assign(u=0.0)
+    assert np.isnan(hp.species_flux_above(still, 2)["flux_above_surface_1"])

@@ -502,7 +502,9 @@ def test_heap_delta_and_tail_carry_the_other_origin_as_a_variant(tmp_path):
     scalars = json.loads((path / "analysis" / "scalars.json").read_text())
     scalars.update({"origin": "local", "delta_over_d_other_origin": 1.1 * scalars["delta_over_d"],
                     "tail_A_other_origin": 2.0, "tail_k_other_origin": 3.0,
-                    "surface_offset_max_over_d": 1.7, "surface_offset_rms": 1.2e-3})
+                    "surface_offset_max_over_d": 1.7, "surface_offset_rms": 1.2e-3,
+                    "flux_above_surface_1": 0.4, "flux_above_surface_2": 0.2, "flux_above_d_max_1": 0.07,
+                    "flux_above_d_max_2": 0.01})
     write_json(path / "analysis" / "scalars.json", scalars)
     result = HEAP.validation(scene_dir, cases)
     (delta,) = by_quantity(result, "δ/d̄ (flowing")
@@ -511,3 +513,5 @@ def test_heap_delta_and_tail_carry_the_other_origin_as_a_variant(tmp_path):
     a, k = by_quantity(result, "tail")
     assert "origin: plane: 2" in a.variants and a.syst == pytest.approx(0.4, abs=1e-9)
     assert "origin: plane: 3" in k.variants and k.syst >= 0.3 - 1e-9
+    (contrast,) = by_quantity(result, "c_s upstream")
+    assert "the small species carries 40% of its downstream flux above the surface, the large 20%" in contrast.note

@@ -116,6 +116,10 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
     if scalars.get("origin") == "local":  # z of every column from its own free surface, as per_x measured it
         profile = hp.shift_to_surface(profile, per_x.set_index("x")["z_surface_local"])
     collapsed = hp.collapse(profile, per_x, moving.v_r_normal)
+    if scalars.get("origin") == "local":
+        scalars.update(hp.species_flux_above(profile, len(species)))
+        d_max = max(float(sp["d"]) for sp in species)   # a large particle's diameter above the surface
+        scalars.update(hp.species_flux_above(profile, len(species), d_max, "flux_above_d_max"))
     if len(species) == 2 and np.isfinite(scalars.get("delta_mean", np.nan)):
         deposit = hp.deposit_concentration(last.position, last.radius, last.type, fit, geometry,
                                            float(t[0]), float(t[-1]), scalars["delta_mean"], dx)

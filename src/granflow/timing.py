@@ -360,7 +360,7 @@ def _md_cell(text: str) -> str:
 
 
 def markdown(timing: dict, rung: str) -> str:
-    """The two tables (per phase, per rule) and the notes, in Markdown (for the README)."""
+    """The two tables (per phase, per rule) and the notes, in Markdown (for docs/outputs.md)."""
     head = ["jobs", "wall s", "share of wall", "CPU s", "max RSS MB"]
     lines = [f"Where the campaign's time goes (rung {rung}), per phase:", "",
              "| phase | rules | " + " | ".join(head) + " |", "|---|---|" + "---:|" * len(head)]

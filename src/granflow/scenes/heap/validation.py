@@ -456,8 +456,8 @@ def law_difference(rec: dict, d_ref: float, knobs: dict, lightest: dict) -> str:
             f"e; lighter pairs collide faster (the lightest, {lightest['name']}: t_c = {lightest['t_c'] * 1e3:.3g} ms) "
             f"and every contact has its own restitution: e from {min(es):.2f} to {max(es):.2f} over the listed "
             f"pairs and walls. The paper gives every pair and wall t_c = {PAPER_T_C * 1e3:g} ms and e = 0.8 "
-            "(k_n ∝ m_eff): that law (hooke/pair_time) loses 1 mm particles through the walls at this feed (README, "
-            "Contact laws).")
+            "(k_n ∝ m_eff): that law (hooke/pair_time) loses 1 mm particles through the walls at this feed "
+            "(docs/contact-laws.md).")
 
 
 def differences(cases: list[HeapCase]) -> list[str]:

@@ -146,11 +146,19 @@ def skiprun(lmp):
 def scenes_off():
     """YAML lines that disable every registered scene but ``keep``: a test campaign passed with
     ``--configfile`` merges into config/config.yaml, so each scene it does not run must be off
-    (including scenes added after the test was written). ``indent`` is that of the scene keys."""
+    (including scenes added after the test was written). ``indent`` is that of the scene keys.
+    With ``cost=True`` the lines are for the ``cost.scenes`` section: only the studies that
+    config/config.yaml holds (an entry there needs its base rung and knobs; a scene without one
+    has no study to switch off)."""
+    import yaml
+
     from granflow import registry
 
-    def lines(keep=(), indent: int = 2) -> str:
-        return "".join(f"{' ' * indent}{name}: {{enabled: false}}\n" for name in registry.names() if name not in keep)
+    studies = (yaml.safe_load((ROOT / "config" / "config.yaml").read_text()).get("cost") or {}).get("scenes") or {}
+
+    def lines(keep=(), indent: int = 2, cost: bool = False) -> str:
+        names = [n for n in registry.names() if n not in keep and (not cost or n in studies)]
+        return "".join(f"{' ' * indent}{name}: {{enabled: false}}\n" for name in names)
 
     return lines
 
@@ -238,3 +246,49 @@ def _assert_plotted(ax, x, y, rtol: float = 1e-12) -> None:
 def assert_plotted():
     """``assert_plotted(ax, x, y)``: the axes show exactly these points as one series."""
     return _assert_plotted
+
+
+def _minimal_scene(scenes_dir: Path, config_dir: Path, name: str = "drum", edits: dict | None = None) -> Path:
+    """Add the minimal scene of ``tests/data/minimal_scene`` as package ``scenes_dir/<name>`` (its
+    ``__init__.py`` and the chute's deck template renamed), with the chute's schema and scene file
+    renamed under ``config_dir/schema`` and ``config_dir/scenes``: the three places a new scene's
+    files go. ``edits`` maps a text of the scene file to its replacement (each found exactly once).
+    Returns the package folder."""
+    package = scenes_dir / name
+    package.mkdir(parents=True)
+    shutil.copyfile(ROOT / "tests" / "data" / "minimal_scene" / "__init__.py", package / "__init__.py")
+    shutil.copyfile(ROOT / "src" / "granflow" / "scenes" / "chute" / "chute.lmp.j2", package / f"{name}.lmp.j2")
+    schema = (ROOT / "config" / "schema" / "chute.schema.yaml").read_text()
+    schema = _replace_once(schema, "scene: {const: chute, default: chute,", f"scene: {{const: {name}, default: {name},")
+    (config_dir / "schema").mkdir(parents=True, exist_ok=True)
+    (config_dir / "schema" / f"{name}.schema.yaml").write_text(schema)
+    text = _replace_once((ROOT / "config" / "scenes" / "chute.yaml").read_text(), "scene: chute ", f"scene: {name} ")
+    for old, new in (edits or {}).items():
+        text = _replace_once(text, old, new)
+    (config_dir / "scenes").mkdir(parents=True, exist_ok=True)
+    (config_dir / "scenes" / f"{name}.yaml").write_text(text)
+    return package
+
+
+@pytest.fixture(scope="session")
+def minimal_scene():
+    """``minimal_scene(scenes_dir, config_dir, name="drum", edits=None)``: write a scene that gives only
+    what granflow.registry.REQUIRED asks (see :func:`_minimal_scene`); returns its package folder."""
+    return _minimal_scene
+
+
+def _project_copy(dest: Path) -> Path:
+    """A copy of the project's code and workflow (Snakefile, workflows/, config/, src/, lammps_inputs/)
+    at ``dest``: a checkout to add scene packages to. Run it with ``PYTHONPATH=<dest>/src`` so that
+    granflow is imported from the copy."""
+    skip = shutil.ignore_patterns("__pycache__", "*.egg-info")
+    for name in ("workflows", "config", "src", "lammps_inputs"):
+        shutil.copytree(ROOT / name, dest / name, ignore=skip)
+    shutil.copyfile(ROOT / "Snakefile", dest / "Snakefile")
+    return dest
+
+
+@pytest.fixture(scope="session")
+def project_copy():
+    """``project_copy(dest)``: a copy of the project's code and workflow (see :func:`_project_copy`)."""
+    return _project_copy

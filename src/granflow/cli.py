@@ -169,6 +169,7 @@ def _check_out(out: str, record, force: bool) -> Path:
 def cmd_render(args) -> int:
     from .deck import STAGES, render_case, scene_parameters
 
+    registry.get(args.scene)  # a refused scene: what it lacks, before its files are read
     scene_file = Path(args.config or PROJECT_ROOT / "config" / "scenes" / f"{args.scene}.yaml")
     scene = load_scene(scene_file, args.overrides)
     if scene["scene"] != args.scene:
@@ -188,10 +189,13 @@ def cmd_render(args) -> int:
 
 
 def cmd_scenes(args) -> int:
-    """One line per registered scene: name, what it simulates, and its sweep axes."""
+    """One line per registered scene: name, what it simulates, and its sweep axes; then one line per
+    scene package refused at discovery, with what it lacks (the others work as usual)."""
     for name, scene in registry.scenes().items():
         axes = ", ".join(a.key for a in scene.sweep)
         print(f"{name:10s} {scene.summary} [sweep: {axes}]")
+    for name, why in registry.refused().items():
+        print(f"{name:10s} refused: {why}")
     return 0
 
 
@@ -212,6 +216,8 @@ def _check_case_dir(case_dir: str) -> Path:
     if not isinstance(record, dict) or not {"scene", "rung", "parameters"} <= set(record):
         raise UsageError(f"{params} is not a granflow parameter record (needs scene, rung, parameters): "
                          f"render the case again")
+    if record["scene"] in registry.refused():
+        raise registry.SceneError(f"{params}: scene = {record['scene']!r}: {registry.refused()[record['scene']]}")
     if record["scene"] not in registry.names():
         raise UsageError(f"{params}: scene = {record['scene']!r} is not allowed: allowed one of "
                          f"{', '.join(registry.names())}")
@@ -295,7 +301,9 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Render the LAMMPS decks (init, flow, average) and params.json of "
                                    "one case of SCENE at RUNG into DIR, without running LAMMPS. The time "
                                    "step is checked against the stiffest contact first.")
-    p.add_argument("scene", choices=registry.names(), help="scene name (see `granflow scenes`)")
+    # a refused scene is a choice too: render names what it lacks (exit 2)
+    p.add_argument("scene", choices=registry.names() + tuple(registry.refused()),
+                   help="scene name (see `granflow scenes`)")
     p.add_argument("--rung", required=True, help="fidelity rung: smoke, demo, study, paper or validation")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--config", help="scene YAML (default config/scenes/SCENE.yaml)")
@@ -308,7 +316,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("scenes", help="list the registered scenes, one line each",
                        description="List every scene package under granflow/scenes with what it simulates "
-                                   "and the case keys a campaign can sweep.")
+                                   "and the case keys a campaign can sweep; a package refused at discovery "
+                                   "is listed with what it lacks.")
     p.set_defaults(func=cmd_scenes)
 
     p = sub.add_parser("run", help="run or resume a rendered case",

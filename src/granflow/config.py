@@ -222,6 +222,8 @@ def require(cond: bool, msg: str) -> None:
 def validate_scene(scene: dict, source: str = "scene") -> dict:
     """Schema plus cross-field checks of a scene file; returns it unchanged."""
     name = scene.get("scene")
+    if name in registry.refused():
+        raise registry.SceneError(f"{source}: scene = {name!r}: {registry.refused()[name]}")
     if name not in registry.names():
         raise ConfigError(f"{source}: scene = {name!r} is not allowed: allowed one of "
                           f"{', '.join(map(repr, registry.names()))}")
@@ -257,8 +259,12 @@ def validate_campaign_scenes(data: dict, root: Path, source: str = "config") -> 
     check_results_dir(data.get("results_dir", "results"), root, source)
     estimates = {}
     for name, sc in data.get("scenes", {}).items():
-        require(name in registry.names(), f"{path}: scenes.{name} is not allowed: allowed one of "
-                                         f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
+        if name in registry.refused() and sc.get("enabled", True):  # a disabled one is not needed
+            raise registry.SceneError(f"{path}: scenes.{name} is enabled, but the scene is refused: "
+                                      f"{registry.refused()[name]}")
+        require(name in registry.names() or name in registry.refused(),
+                f"{path}: scenes.{name} is not allowed: allowed one of "
+                f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
         if not sc.get("enabled", True):
             continue
         scene_path = Path(sc.get("scene_file") or f"config/scenes/{name}.yaml")

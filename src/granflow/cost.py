@@ -206,11 +206,18 @@ def cost_studies(data: dict, root: Path, source: str) -> dict:
 
     studies = {}
     for name, study in (data["cost"].get("scenes") or {}).items():
-        if name not in registry.names():
+        if name not in registry.names() and name not in registry.refused():
             raise ConfigError(f"{source}: cost.scenes.{name} is not allowed: allowed one of "
                               f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
         if not study.get("enabled", True):
             continue
+        if name in registry.refused():
+            raise registry.SceneError(f"{source}: cost.scenes.{name} is enabled, but the scene is refused: "
+                                      f"{registry.refused()[name]}")
+        if not registry.get(name).gives("cost_study"):
+            raise ConfigError(f"{source}: cost.scenes.{name} is not allowed: the {name} scene declares no cost "
+                              f"study (it needs knobs, headline and observables(); granflow.registry.OPTIONAL): "
+                              f"allowed no cost.scenes.{name} entry, or enabled: false")
         sc = data.get("scenes", {}).get(name) or {}
         scene_path = Path(sc.get("scene_file") or f"config/scenes/{name}.yaml")
         scene = sc.get("scene") or load_scene(scene_path if scene_path.is_absolute() else root / scene_path)
@@ -266,9 +273,11 @@ def prefix_segments(segments: list[dict], t_average: float, t_segment: float) ->
     return out
 
 
-def paper_reference(scene_name: str, scene: dict) -> dict:
-    """Particle count and simulated time of the paper rung for the study's case (for the extrapolation)."""
-    return registry.get(scene_name).paper_reference(scene)
+def paper_reference(scene_name: str, scene: dict) -> dict | None:
+    """Particle count and simulated time of the paper rung for the study's case (for the extrapolation);
+    None for a scene that declares no :meth:`~granflow.registry.Scene.paper_reference` (no extrapolation)."""
+    declared = registry.get(scene_name)
+    return declared.paper_reference(scene) if declared.gives("paper_reference") else None
 
 
 def paper_time_step(knob: str | None, value: float | None, dt_run: float, base_dt_fraction: float,

@@ -79,7 +79,8 @@ def overview_rst(summaries: list[dict], rung: str) -> str:
     for s in summaries:
         checks = s.get("checks", [])
         if not checks:
-            lines += [rst_text(f"{s['scene']}: no headline number could be measured in this campaign."), ""]
+            why = s.get("note") or "no headline number could be measured in this campaign."
+            lines += [rst_text(f"{s['scene']}: {why}"), ""]
             continue
         rows = []
         for c in checks:

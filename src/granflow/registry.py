@@ -11,6 +11,13 @@ Snakemake rules, report, cost study, CLI) find scenes only through
 Adding a scene means adding its package (with ``SCENE``), its scene file
 ``config/scenes/<name>.yaml`` and its schema ``config/schema/<name>.schema.yaml``;
 nothing else. Packages are found by :mod:`pkgutil`, so there is no list to edit.
+
+The contract: what a scene must give is :data:`REQUIRED`, checked when its package is
+found (:func:`missing`); a package that fails the check (or does not import) is refused by
+name with what it lacks (:class:`SceneError`, exit 2 from any command that needs it) while
+the other scenes keep working. What it may give is :data:`OPTIONAL`: the generic layers ask
+:meth:`Scene.gives` and skip what a scene does not give. Everything else has a default
+(:data:`DEFAULTED`).
 """
 from __future__ import annotations
 
@@ -26,8 +33,12 @@ from typing import Callable, ClassVar
 import pandas as pd
 import yaml
 
+from .yamlio import ConfigError
+
 #: Where the scene packages live.
 SCENES_PACKAGE = "granflow.scenes"
+#: the project's config folder: each scene's schema and scene file
+CONFIG_DIR = Path(__file__).resolve().parents[2] / "config"
 
 
 # ------------------------------------------------------------------ declarations
@@ -190,12 +201,12 @@ GENERIC_STATUSES: dict[str, str] = {
 class Scene:
     """Base class of a scene declaration; a scene package sets ``SCENE = MyScene()``.
 
-    Class attributes to set: ``name``, ``summary`` (one line), ``paper``,
-    ``sweep`` (tuple of :class:`SweepAxis`), ``figures`` (name -> :class:`FigureSpec`),
-    ``table_caption``, ``table_sort`` (columns), ``headline`` ((key, label) pairs),
-    ``knobs`` (knob name -> :class:`Knob`). Methods with a default here may be
-    left alone; :meth:`parameters`, :meth:`analyse` and :meth:`figure_cases`
-    must be given.
+    Must give (:data:`REQUIRED`, checked at discovery): ``name``, ``summary`` (one line),
+    ``sweep`` (tuple of :class:`SweepAxis`), ``figures`` (name -> :class:`FigureSpec`, may be
+    empty), :meth:`parameters`, :meth:`analyse` and, with figures, :meth:`figure_cases`.
+    May give (:data:`OPTIONAL`, see :meth:`gives`): :meth:`validation` with ``paper``; a cost
+    study (``knobs``, ``headline``, :meth:`observables`) with :meth:`paper_reference`;
+    ``snapshot``. Everything else has a default here (:data:`DEFAULTED`).
     """
 
     name: ClassVar[str] = ""
@@ -215,6 +226,19 @@ class Scene:
     time_unit: ClassVar[str] = "simulation units"
     #: how its particle snapshots look (None: the scene writes none, whatever its effects say)
     snapshot: ClassVar[SnapshotView | None] = None
+
+    # -- what it gives ------------------------------------------------------------------
+    def gives(self, hook: str) -> bool:
+        """Whether the scene gives the optional ``hook``, a key of :data:`OPTIONAL`: ``validation``,
+        ``cost_study`` (``knobs``, ``headline`` and :meth:`observables`, all three),
+        ``paper_reference`` or ``snapshots``. The generic layers skip what it does not give."""
+        if hook == "cost_study":
+            return bool(self.knobs) and bool(self.headline) and _overrides(self, "observables")
+        if hook == "snapshots":
+            return self.snapshot is not None
+        if hook in ("validation", "paper_reference"):
+            return _overrides(self, hook)
+        raise KeyError(f"no optional hook {hook!r}: allowed {', '.join(OPTIONAL)}")
 
     # -- where its files are ----------------------------------------------------------
     @property
@@ -336,7 +360,8 @@ class Scene:
     # -- the error-versus-cost study ----------------------------------------------------
     def observables(self, case_dir: Path, record: dict, t_average: float,
                     block: tuple[float, float] | None = None) -> tuple[dict, tuple[float, float]]:
-        """Headline numbers (``{key: value}``, NaN where not measurable) over the first ``t_average``
+        """Optional, with ``knobs`` and ``headline`` the cost study (:data:`OPTIONAL`): headline numbers
+        (``{key: value}``, NaN where not measurable) over the first ``t_average``
         of the averaging stage, or over ``block`` of its window; and the window ``(t0, t1)`` used.
 
         The generic study splits the returned window into equal blocks for the errors.
@@ -353,8 +378,8 @@ class Scene:
 
     # -- the validation record ----------------------------------------------------------
     def validation(self, scene_dir: Path, cases: dict[str, Path]):
-        """Compare the finished cases of ``scene_dir`` (``{case dir name: path}``, analysed,
-        with the rung's figures under ``scene_dir/figures``) with the paper.
+        """Optional (:data:`OPTIONAL`): compare the finished cases of ``scene_dir`` (``{case dir
+        name: path}``, analysed, with the rung's figures under ``scene_dir/figures``) with the paper.
 
         Returns a :class:`granflow.validation.ValidationResult`: one ``Check`` per quantity
         (the paper's value and where it is stated, ours with its statistical error), the
@@ -363,7 +388,7 @@ class Scene:
         raise NotImplementedError(f"scene {self.name!r} has no validation (Scene.validation)")
 
     def paper_reference(self, scene: dict) -> dict:
-        """Particle count and simulated time of the paper rung (for the cost extrapolation)."""
+        """Optional: particle count and simulated time of the paper rung (for the cost extrapolation)."""
         raise NotImplementedError(f"scene {self.name!r} has no paper reference")
 
     def cost_note(self, scene: dict, rung: str) -> str:
@@ -392,39 +417,164 @@ class Scene:
         return points
 
 
-# ------------------------------------------------------------------------- lookup
-@lru_cache(maxsize=None)
-def _registry() -> dict[str, Scene]:
-    package = importlib.import_module(SCENES_PACKAGE)
-    out = {}
-    for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
-        if not info.ispkg:
-            continue
-        module = importlib.import_module(f"{SCENES_PACKAGE}.{info.name}")
-        scene = getattr(module, "SCENE", None)
-        if not isinstance(scene, Scene):
-            raise TypeError(f"{module.__name__} defines no SCENE (a granflow.registry.Scene instance)")
-        if scene.name != info.name:
-            raise TypeError(f"{module.__name__}.SCENE.name = {scene.name!r}: must equal the package name")
-        out[scene.name] = scene
+# -------------------------------------------------------------------- the contract
+#: what every scene must give, checked when its package is found (:func:`missing`)
+REQUIRED: dict[str, str] = {
+    "SCENE": "the package's SCENE, an instance of a granflow.registry.Scene subclass",
+    "name": "the package's name",
+    "summary": "one line saying what it simulates",
+    "sweep": "its sweep axes: one SweepAxis or more, each a key of its schema's case section",
+    "figures": "its figures, name -> FigureSpec (may be empty)",
+    "parameters()": "a case's deck numbers and template context (with its parameter record)",
+    "analyse()": "a finished case's tables and scalars",
+    "figure_cases()": "the figure functions' cases (when figures is not empty)",
+    "schema": "config/schema/<name>.schema.yaml",
+    "scene file": "config/scenes/<name>.yaml",
+    "deck template": "<name>.lmp.j2 in its package",
+}
+
+#: what a scene may give (:meth:`Scene.gives`), and what the generic layers do without it
+OPTIONAL: dict[str, str] = {
+    "validation": "validation(), with paper: its checks against the paper; without it the validation record "
+                  "lists the cases and says 'no validation declared'",
+    "cost_study": "knobs, headline and observables(), all three: the error-versus-cost study; without it there "
+                  "is none, and a campaign's cost entry for the scene is refused",
+    "paper_reference": "paper_reference(): the paper's size for the cost study's extrapolation; without it the "
+                       "study's table says there is no extrapolation",
+    "snapshots": "snapshot (a SnapshotView): particle images in the report; without it, none",
+}
+
+#: what every scene has from :class:`Scene` and may override
+DEFAULTED: dict[str, str] = {
+    "checks": "check(), check_case(), case_values(): no checks beyond the schema; the case over the file's",
+    "sizes": "describe(), workload(), particle_count(), simulate_ranks(), analyse_threads()",
+    "run policy": "flow_verdict(), after_segment(), stop_statuses, statuses: the generic steady-state test",
+    "report": "table(), table_sort, table_caption (or captions.yaml), time_unit, cost_note()",
+}
+
+
+class SceneError(ConfigError):
+    """A scene package that does not meet the contract: named with what it lacks (exit 2)."""
+
+
+def _overrides(scene: Scene, method: str) -> bool:
+    """Whether ``scene``'s class defines ``method`` itself instead of taking :class:`Scene`'s."""
+    return getattr(type(scene), method, None) is not getattr(Scene, method)
+
+
+def _case_keys(schema: Path) -> set | None:
+    """Keys of a schema's ``case`` section (None when the file does not read as a schema)."""
+    try:
+        data = yaml.load(schema.read_text(), Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+        return set(data["properties"]["case"]["properties"])
+    except (OSError, yaml.YAMLError, KeyError, TypeError):
+        return None
+
+
+def missing(scene, package: str, config_dir: Path | None = None) -> list[str]:
+    """What ``scene``, the ``SCENE`` of package ``package``, lacks of :data:`REQUIRED`, one
+    phrase each (empty when it meets the contract); files are looked for in ``config_dir``
+    (default :data:`CONFIG_DIR`) and its package."""
+    if not isinstance(scene, Scene):
+        return [f"SCENE ({REQUIRED['SCENE']}; found {type(scene).__name__})"]
+    config_dir = Path(CONFIG_DIR if config_dir is None else config_dir)
+    out = []
+    if scene.name != package:
+        out.append(f"name (SCENE.name = {scene.name!r}: must be the package's name {package!r})")
+    if not (isinstance(scene.summary, str) and scene.summary.strip()):
+        out.append(f"summary ({REQUIRED['summary']})")
+    axes_ok = (isinstance(scene.sweep, (tuple, list)) and bool(scene.sweep)
+               and all(isinstance(a, SweepAxis) for a in scene.sweep))
+    if not axes_ok:
+        out.append(f"sweep ({REQUIRED['sweep']})")
+    if not (isinstance(scene.figures, dict) and all(isinstance(f, FigureSpec) and callable(f.draw)
+                                                   for f in scene.figures.values())):
+        out.append(f"figures ({REQUIRED['figures']})")
+    for method in ("parameters", "analyse") + (("figure_cases",) if scene.figures else ()):
+        if not _overrides(scene, method):
+            out.append(f"{method}() ({REQUIRED[method + '()']})")
+    schema = config_dir / "schema" / f"{package}.schema.yaml"
+    keys = _case_keys(schema) if schema.is_file() else None
+    if keys is None:
+        out.append(f"schema ({schema}: {'no case section' if schema.is_file() else 'no such file'})")
+    elif axes_ok and any(a.key not in keys for a in scene.sweep):
+        out.append(f"sweep (axes {', '.join(a.key for a in scene.sweep if a.key not in keys)} are not keys of "
+                   f"the case section of {schema})")
+    scene_file = config_dir / "scenes" / f"{package}.yaml"
+    if not scene_file.is_file():
+        out.append(f"scene file ({scene_file}: no such file)")
+    template = scene.package_dir / f"{package}.lmp.j2"
+    if not template.is_file():
+        out.append(f"deck template ({template}: no such file)")
+    if scene.knobs and not scene.gives("cost_study"):
+        out.append("headline and observables() (its knobs declare a cost study, which needs all three)")
     return out
 
 
+@dataclass(frozen=True)
+class Found:
+    """The scene packages of one discovery: the usable ones by name, the refused ones with why."""
+
+    scenes: dict
+    refused: dict
+
+
+def discover(package: str = SCENES_PACKAGE, config_dir: Path | None = None) -> Found:
+    """Import every subpackage of ``package`` and check its ``SCENE`` (:func:`missing`). A package
+    that does not import, has no ``SCENE`` or lacks a required part is refused with the reason;
+    the others are found, by name (sorted)."""
+    scenes, refused = {}, {}
+    for info in sorted(pkgutil.iter_modules(importlib.import_module(package).__path__), key=lambda m: m.name):
+        if not info.ispkg:
+            continue
+        try:
+            module = importlib.import_module(f"{package}.{info.name}")
+        except Exception as exc:  # noqa: BLE001 - any error of a scene's code refuses that scene only
+            refused[info.name] = f"its package does not import ({type(exc).__name__}: {exc})"
+            continue
+        try:
+            lacks = missing(getattr(module, "SCENE", None), info.name, config_dir)
+        except Exception as exc:  # noqa: BLE001 - e.g. a member that is not what its name says
+            lacks = [f"a SCENE that can be checked ({type(exc).__name__}: {exc})"]
+        if lacks:
+            refused[info.name] = "it lacks " + "; ".join(lacks)
+        else:
+            scenes[info.name] = module.SCENE
+    return Found(scenes, refused)
+
+
+# ------------------------------------------------------------------------- lookup
+@lru_cache(maxsize=None)
+def _found() -> Found:
+    return discover()
+
+
 def scenes() -> dict[str, Scene]:
-    """Every registered scene, by name (sorted)."""
-    return dict(_registry())
+    """Every registered scene that meets the contract, by name (sorted)."""
+    return dict(_found().scenes)
 
 
 def names() -> tuple[str, ...]:
-    return tuple(_registry())
+    """Names of the usable scenes (sorted); :func:`refused` has the others."""
+    return tuple(_found().scenes)
+
+
+def refused() -> dict[str, str]:
+    """Scene packages refused at discovery: name -> what is wrong."""
+    return dict(_found().refused)
 
 
 def get(name: str) -> Scene:
-    """The scene called ``name``; ``KeyError`` naming the registered ones otherwise."""
+    """The scene called ``name``; :class:`SceneError` naming what a refused one lacks, ``KeyError``
+    naming the registered ones for an unknown name."""
+    found = _found()
+    if name in found.refused:
+        raise SceneError(f"scene {name!r} is refused: {found.refused[name]} (granflow.registry.REQUIRED lists "
+                         f"what a scene must give)")
     try:
-        return _registry()[name]
+        return found.scenes[name]
     except KeyError:
-        raise KeyError(f"no scene {name!r}: registered scenes are {', '.join(_registry())}") from None
+        raise KeyError(f"no scene {name!r}: registered scenes are {', '.join(found.scenes)}") from None
 
 
 def finite(value) -> float:
@@ -436,4 +586,5 @@ def finite(value) -> float:
     return value if math.isfinite(value) else float("nan")
 
 
-__all__ = ["Scene", "SweepAxis", "FigureSpec", "Knob", "Stage", "Workload", "SnapshotView", "scenes", "names", "get", "finite"]
+__all__ = ["Scene", "SweepAxis", "FigureSpec", "Knob", "Stage", "Workload", "SnapshotView", "SceneError",
+           "REQUIRED", "OPTIONAL", "DEFAULTED", "missing", "discover", "scenes", "names", "refused", "get", "finite"]

@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 import math
 import shutil
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -168,12 +168,28 @@ class ValidationResult:
         Names of the scene's figures (``<results>/<scene>/<rung>/figures/<name>.png``) to keep.
     differences : list of str
         What differs from the paper's set-up, and why.
+    note : str
+        Why there are no checks, for a scene that declares no validation (:data:`NO_VALIDATION`).
     """
 
     checks: list[Check]
     profiles: dict[str, pd.DataFrame] = field(default_factory=dict)
     figures: list[str] = field(default_factory=list)
     differences: list[str] = field(default_factory=list)
+    note: str = ""
+
+
+#: the record of a scene without :meth:`~granflow.registry.Scene.validation` says so instead of its checks
+NO_VALIDATION = ("no validation declared: the scene gives no validation(), so its cases are listed and nothing "
+                 "is compared")
+
+
+def scene_validation(scene, scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
+    """The scene's :meth:`~granflow.registry.Scene.validation` of its cases, or, for a scene that
+    declares none, a result without checks whose note says so (:data:`NO_VALIDATION`)."""
+    if not scene.gives("validation"):
+        return ValidationResult(checks=[], note=NO_VALIDATION)
+    return scene.validation(scene_dir, cases)
 
 
 #: log lines worth keeping from each case (substrings; the first and last match of each)
@@ -273,7 +289,8 @@ def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs
         (out / name).write_bytes(data)
     cases = [dict(dir=rel, **case_summary(Path(path))) for rel, path in case_dirs.items()]
     checks = [asdict(c) for c in result.checks]
-    pd.DataFrame(checks).to_csv(out / "checks.csv", index=False)
+    # the columns named: a scene without checks still gets the table's header
+    pd.DataFrame(checks, columns=[f.name for f in fields(Check)]).to_csv(out / "checks.csv", index=False)
     for name, table in result.profiles.items():
         table.to_csv(out / "profiles" / f"{name}.csv", index=False, float_format="%.6g")
     for name in result.figures:
@@ -293,6 +310,8 @@ def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs
         "figures": [f"figures/{n}.png" for n in result.figures if (out / "figures" / f"{n}.png").exists()],
         "sigmas": SIGMAS,
     }
+    if result.note:  # only then: the records of scenes with checks keep their keys
+        summary["note"] = result.note
     (out / "summary.json").write_text(json.dumps(_clean(summary), indent=1, ensure_ascii=False) + "\n")
     size = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
     if size > MAX_SCENE_BYTES:
@@ -488,6 +507,8 @@ def write_readme(folder: Path) -> str:
     rungs = sorted({s["rung"] for s in summaries}) or ["validation"]
     text = README_HEAD.format(rung=", ".join(rungs), sigmas=SIGMAS)
     text += readme_table(summaries) + "\n"
+    text += "".join(f"- {s['scene']}: {s['note']}\n" for s in summaries if s.get("note"))
+    text += "\n" if any(s.get("note") for s in summaries) else ""
     text += "## Cost\n\n| scene | cases | particles | CPU-hours | commit | LAMMPS |\n|---|---|---|---|---|---|\n"
     for s in summaries:
         parts = [c["particles"] for c in s["cases"] if c.get("particles")]
@@ -517,8 +538,8 @@ def write_readme(folder: Path) -> str:
         text += "".join(p.read_text() for p in ladders)
     text += "\n## What differs from the papers\n\n"
     for s in summaries:
-        text += f"### {s['scene']} ({s.get('paper', '')})\n\n"
-        text += "".join(f"- {d}\n" for d in s["differences"]) or "- nothing stated\n"
+        text += f"### {s['scene']}" + (f" ({s['paper']})" if s.get("paper") else "") + "\n\n"
+        text += "".join(f"- {d}\n" for d in s["differences"]) or f"- {s.get('note') or 'nothing stated'}\n"
         text += "\n"
     (folder / "README.md").write_text(text)
     return text

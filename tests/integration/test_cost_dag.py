@@ -27,7 +27,7 @@ def cost_campaign(tmp_path_factory, root, scenes_off):
         "cost:\n"
         "  n_blocks: 2\n"
         "  scenes:\n"
-        + scenes_off(keep=("channel",), indent=4) +
+        + scenes_off(keep=("channel",), indent=4, cost=True) +
         "    channel:\n"
         "      base_rung: smoke\n"
         "      set:\n"

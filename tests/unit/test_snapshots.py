@@ -14,20 +14,23 @@ from granflow.deck import render_case  # noqa: E402
 from granflow.registry import SnapshotView  # noqa: E402
 from granflow.snapshots import SnapshotError, compose, images, pick, segment_times  # noqa: E402
 
-SMOKE_CASES = {"channel": {}, "chute": {}, "heap": {"feed_rate": 0.005}, "silo": {"R": 3.0}}
+#: the case of a scene where its scene file's own case is not feasible at the smoke rung
+SMOKE_CASES = {"heap": {"feed_rate": 0.005}, "silo": {"R": 3.0}}
 
 
-@pytest.mark.parametrize("name", sorted(SMOKE_CASES))
+@pytest.mark.parametrize("name", registry.names())
 def test_decks_write_images_only_at_the_listed_rungs(tmp_path, name):
+    if not registry.get(name).gives("snapshots"):
+        pytest.skip(f"the {name} scene declares no snapshot view: it writes no images")
     scene = load_scene(f"config/scenes/{name}.yaml")
     assert scene["effects"]["snapshots"] == ["demo"]
     view = registry.get(name).snapshot
-    render_case(scene, "smoke", tmp_path / "off", SMOKE_CASES[name])
+    render_case(scene, "smoke", tmp_path / "off", SMOKE_CASES.get(name))
     assert not any("write_dump" in p.read_text() for p in (tmp_path / "off").glob("*.lmp"))
     assert json.loads((tmp_path / "off" / "params.json").read_text())["snapshots"] is None
 
     scene["effects"]["snapshots"] = ["smoke"]
-    render_case(scene, "smoke", tmp_path / "on", SMOKE_CASES[name])
+    render_case(scene, "smoke", tmp_path / "on", SMOKE_CASES.get(name))
     for deck in sorted((tmp_path / "on").glob("*.lmp")):
         text = deck.read_text()
         lines = [ln for ln in text.splitlines() if ln.startswith("write_dump")]

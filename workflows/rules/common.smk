@@ -96,12 +96,34 @@ def simulate_runtime(wildcards, input, threads, attempt):
 def check_command_line_targets():
     """Files named on the snakemake command line get the campaign's validation: a scene, rung,
     case or cost-study run that the campaign does not hold is refused, naming the allowed ones
-    (granflow.targets). Called by the Snakefile once every rule file is read."""
+    (granflow.targets); then one line for each part the targets ask of a scene that it does not
+    give (say_skipped). Called by the Snakefile once every rule file is read."""
     if Path(sys.argv[0]).name != "snakemake" and not sys.argv[0].endswith("snakemake/__main__.py"):
         return
     cost = {name: (cs.runs(), cs.points()) for name, cs in CAMPAIGN.get("cost_studies", {}).items()}
+    targets = cli_targets(sys.argv[1:])
     try:
-        check_targets(cli_targets(sys.argv[1:]), RESULTS, RUNG, {name: scene_cases(name) for name in SCENES},
+        check_targets(targets, RESULTS, RUNG, {name: scene_cases(name) for name in SCENES},
                       registry.names(), cost)
     except ConfigError as exc:
         refuse("invalid target", exc)
+    say_skipped(targets)
+
+
+def say_skipped(targets):
+    """One line on stderr for each optional part (granflow.registry.OPTIONAL) that a target named on
+    the command line asks of an enabled scene which does not give it: `validate` its validation(),
+    `cost` its cost study and paper_reference(). What is skipped is said, not found out later."""
+    lines = []
+    if "validate" in targets:
+        lines += [f"validate: the {name} scene declares no validation(): its record lists its cases and says "
+                  f"'no validation declared'" for name, scene in SCENES.items()
+                  if scene_cases(name) and not scene.gives("validation")]
+    if "cost" in targets:
+        lines += [f"cost: the {name} scene declares no cost study (knobs, headline and observables()): "
+                  f"none is run for it" for name, scene in SCENES.items() if not scene.gives("cost_study")]
+        lines += [f"cost: the {name} scene declares no paper_reference(): its study is not extrapolated to the "
+                  f"paper's size" for name in CAMPAIGN.get("cost_studies", {})
+                  if not registry.get(name).gives("paper_reference")]
+    for line in lines:
+        print(line, file=sys.stderr)

@@ -61,18 +61,24 @@ errors = knob_errors(records, noise_sigmas=study["noise_sigmas"])
 errors.to_csv(snakemake.output.errors, index=False)
 scaling = cost_scaling(records)
 paper = study["paper"]
-# the paper-size extrapolation counts steps: this run's simulated time in units of the time step
-# the paper-size run would take with this setting (the paper's, except for the knob's own value)
-dt_paper = [paper_time_step(None if b else k, v, dt, study["base_dt_fraction"], paper)
-            for k, v, dt, b in zip(errors["knob"], errors["value"], errors["dt"], errors["is_base"])]
-steps_equivalent = errors.assign(sim_time=errors["sim_time"] * pd.Series(dt_paper, index=errors.index) / errors["dt"])
-within = within_table(steps_equivalent, tolerances=tuple(study["tolerances"]), scaling=scaling,
-                      paper={"n_particles": paper["n_particles"], "sim_time": paper["sim_time"]})
-within.insert(len(within.columns), "extrapolation",
-              f"extrapolated: CPU x (N'/N)^{scaling['exponent']:.2f} x (t'/dt')/(t/dt) with N' = {paper['n_particles']}, "
-              f"t' = {paper['sim_time']:.4g} ({paper['how']}) and dt' the paper rung's step "
-              f"({paper['dt']:.3g}) except for this knob's own setting; exponent "
-              f"{'measured from the size runs' if scaling['measured'] else 'assumed 1 (fewer than 2 sizes)'}")
+if paper is None:  # the scene declares no paper_reference(): nothing to extrapolate to
+    within = within_table(errors, tolerances=tuple(study["tolerances"]), scaling=scaling)
+    within.insert(len(within.columns), "extrapolation",
+                  f"none: the {scene} scene declares no paper_reference() (the paper's size and time)")
+else:
+    # the paper-size extrapolation counts steps: this run's simulated time in units of the time step
+    # the paper-size run would take with this setting (the paper's, except for the knob's own value)
+    dt_paper = [paper_time_step(None if b else k, v, dt, study["base_dt_fraction"], paper)
+                for k, v, dt, b in zip(errors["knob"], errors["value"], errors["dt"], errors["is_base"])]
+    steps_equivalent = errors.assign(
+        sim_time=errors["sim_time"] * pd.Series(dt_paper, index=errors.index) / errors["dt"])
+    within = within_table(steps_equivalent, tolerances=tuple(study["tolerances"]), scaling=scaling,
+                          paper={"n_particles": paper["n_particles"], "sim_time": paper["sim_time"]})
+    within.insert(len(within.columns), "extrapolation",
+                  f"extrapolated: CPU x (N'/N)^{scaling['exponent']:.2f} x (t'/dt')/(t/dt) with "
+                  f"N' = {paper['n_particles']}, t' = {paper['sim_time']:.4g} ({paper['how']}) and dt' the paper "
+                  f"rung's step ({paper['dt']:.3g}) except for this knob's own setting; exponent "
+                  f"{'measured from the size runs' if scaling['measured'] else 'assumed 1 (fewer than 2 sizes)'}")
 within.to_csv(snakemake.output.within, index=False)
 
 base = records[records["is_base"]].iloc[0]

@@ -1,4 +1,5 @@
-"""Adapter: one scene's validation record (granflow.validation.write_record on Scene.validation)."""
+"""Adapter: one scene's validation record (granflow.validation.write_record on Scene.validation; a
+scene that declares none gets a record of its cases that says so)."""
 import sys
 from pathlib import Path
 
@@ -23,8 +24,8 @@ for path in cases.values():
     read_csv(path / "run" / "thermo.csv")
     if (path / "provenance.json").exists():
         read_json(path / "provenance.json", keys=("case",))
-result = scene.validation(Path(snakemake.params.scene_dir), cases)
+result = validation.scene_validation(scene, Path(snakemake.params.scene_dir), cases)
 summary = validation.write_record(name, snakemake.params.rung, result, cases,
                                   Path(snakemake.params.scene_dir) / "figures",
                                   Path(snakemake.output.summary).parent, paper=scene.paper)
-print(validation.readme_table([summary]), file=sys.stderr)
+print(f"{name}: {result.note}" if result.note else validation.readme_table([summary]), file=sys.stderr)

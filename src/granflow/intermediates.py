@@ -20,7 +20,6 @@ leaves the last good file where it was.
 from __future__ import annotations
 
 import csv
-import hashlib
 import io
 import json
 import os
@@ -32,6 +31,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pandas as pd
+
+from .provenance import sha256  # noqa: F401 (the checksums' hash; scripts import it from here)
 
 #: the checksum list of a folder (``sha256sum`` format, names relative to the folder)
 SUMS = "SHA256SUMS"
@@ -158,15 +159,6 @@ def read_csv(path: str | Path, rebuild: str | Path | None = None, sep: str = ","
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise DamagedIntermediate(path, f"not a table ({first})", rebuild) from None
-
-
-def sha256(path: str | Path) -> str:
-    """SHA-256 of a file's bytes, as hexadecimal."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _sums_line(digest: str, name: str) -> str:

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .analysis import analyse_profile
+from .analysis import analyse_profile, plug_phi
 from .pipeline import channel_profile
 
 #: interior bin widths tried besides the rung's, d_p
@@ -37,12 +37,7 @@ def _read(a, key: str) -> tuple[float, float]:
         return a.fit.a, a.fit.a_se
     if key == "delta_095_over_W":
         return a.scales.delta_095 / a.W, float("nan")
-    plug = a.zones.labels == "plug"
-    phi = a.folded["phi"].to_numpy(float)
-    if not plug.any():
-        return float("nan"), float("nan")
-    se = a.folded["phi_se"].to_numpy(float)[plug] if "phi_se" in a.folded else np.full(plug.sum(), np.nan)
-    return float(np.nanmean(phi[plug])), float(np.nanmean(se))
+    return plug_phi(a)
 
 
 def u_max_readings(a) -> dict[str, float]:

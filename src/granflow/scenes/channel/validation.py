@@ -32,7 +32,7 @@ from granflow.validation import (Check, ValidationResult, error_note, read_case,
                                  time_average_errors)
 from postproc.autocorr import mean_error
 
-from .analysis import JOP2015, ChannelAnalysis, analyse_profile
+from .analysis import JOP2015, ChannelAnalysis, analyse_profile, plug_phi
 from .measurement import central_errors, headline_variants
 
 NAN = float("nan")
@@ -142,17 +142,6 @@ def _summary(dev: np.ndarray, I: np.ndarray) -> dict:
         return {"rms": NAN, "mean": NAN, "n": 0, "I_min": NAN, "I_max": NAN}
     return {"rms": float(np.sqrt(np.mean(dev**2))), "mean": float(np.mean(dev)), "n": int(len(dev)),
             "I_min": float(np.min(I)), "I_max": float(np.max(I))}
-
-
-def plug_phi(a: ChannelAnalysis) -> tuple[float, float]:
-    """Mean :math:`\\phi` over the plug bins and its error: the mean of the bins' (correlation-aware) errors
-    (bins taken as fully correlated, an upper bound); NaN without a plug."""
-    plug = a.zones.labels == "plug"
-    phi = a.folded["phi"].to_numpy(float)[plug]
-    if not plug.any() or not np.isfinite(phi).any():
-        return NAN, NAN
-    se = a.folded["phi_se"].to_numpy(float)[plug] if "phi_se" in a.folded else np.full(len(phi), NAN)
-    return float(np.nanmean(phi)), float(np.nanmean(se))
 
 
 # ------------------------------------------------------------------------- momentum balance

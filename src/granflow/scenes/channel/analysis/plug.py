@@ -143,16 +143,14 @@ def block_ratios(profiles: list[tuple[float, float, pd.DataFrame]], W: float) ->
     ``t_lo``, ``t_hi``, ``t_mid``, ``u_slip``, ``u_max``, ``ratio``, ``ratio_se`` (the block's own
     error of its bins) and ``plug_phi``.
     """
-    from . import analyse_profile
+    from . import analyse_profile, plug_phi
 
     rows = []
     for lo, hi, profile in profiles:
         a = analyse_profile(profile, W)
-        plug = a.zones.labels == "plug"
-        phi = a.folded["phi"].to_numpy(float)
         rows.append({"t_lo": lo, "t_hi": hi, "t_mid": 0.5 * (lo + hi), "u_slip": a.scales.u_slip,
                      "u_max": a.scales.u_max, "ratio": a.scales.ratio, "ratio_se": a.scales.ratio_se,
-                     "plug_phi": float(np.nanmean(phi[plug])) if plug.any() else np.nan})
+                     "plug_phi": plug_phi(a)[0]})
     return pd.DataFrame(rows)
 
 

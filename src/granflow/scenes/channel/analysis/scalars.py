@@ -64,12 +64,21 @@ SCALAR_KEYS = (
 )
 
 
+def plug_phi(a: ChannelAnalysis) -> tuple[float, float]:
+    """Mean :math:`\\phi` over the plug bins and its error: the mean of the bins' (correlation-aware) errors
+    (bins taken as fully correlated, an upper bound); NaN without a plug."""
+    plug = a.zones.labels == "plug"
+    phi = a.folded["phi"].to_numpy(float)[plug]
+    if not plug.any() or not np.isfinite(phi).any():
+        return float("nan"), float("nan")
+    se = a.folded["phi_se"].to_numpy(float)[plug] if "phi_se" in a.folded else np.full(len(phi), np.nan)
+    return float(np.nanmean(phi)), float(np.nanmean(se))
+
+
 def scalars_from_analysis(a: ChannelAnalysis, phi_mean: float) -> dict:
     """Flatten a :class:`ChannelAnalysis` into the per-case CSV row (:data:`SCALAR_KEYS`)."""
     folded, zones = a.folded, a.zones
     phi, _ = _field(folded, "phi")
-    plug = zones.labels == "plug"
-    plug_phi = float(np.nanmean(phi[plug])) if plug.any() and np.isfinite(phi[plug]).any() else float("nan")
     notes = [f"{k}: {v}" for k, v in (("velocity", a.scales.reason), ("fit", a.fit.reason),
                                       ("stress", a.stress.reason), ("zones", zones.reason)) if v]
     notes += [f"{k}: {v}" for k, v in a.rheo.attrs.get("unavailable", {}).items()]
@@ -89,7 +98,7 @@ def scalars_from_analysis(a: ChannelAnalysis, phi_mean: float) -> dict:
         "sigma_xy_slope_over_rho_g": a.stress.slope_over_rho_g, "mu_wall": a.stress.mu_wall,
         "x_wall_layer": zones.x_wall_layer, "x_loose_dense": zones.x_loose_dense,
         "x_dense_plug": zones.x_dense_plug, "x_plug_phi063": zones.x_plug_phi063,
-        "plug_phi": plug_phi, "notes": "; ".join(notes),
+        "plug_phi": plug_phi(a)[0], "notes": "; ".join(notes),
     }
     return {k: row[k] for k in SCALAR_KEYS}
 

@@ -450,6 +450,49 @@ def test_deposit_concentration_counts_only_the_window_below_the_layer():
     assert_allclose(dep["c_s"], expected, rtol=1e-12)
 
 
+def test_deposit_slabs_give_the_contrast_its_statistical_error():
+    """Four slabs of deposit (the material of four parts of the window) with known contrasts 0.1, 0.3,
+    0.1, 0.3: the whole deposit's contrast is 0.2, its error the slabs' s/√4; the slabs partition the
+    deposit; the front-wall slice counts only y < 2 d_l and, being as mixed as the rest, gives 0.2."""
+    fit, dx, delta, d_l = surface_fit(), 0.02, 5e-3, 2e-3
+    t_start, t_end = 10.0, 20.0
+    cos_a = np.cos(np.radians(ALPHA))
+    lo, hi = -V_R * cos_a * (t_end - t_start), -delta          # the deposit's normal coordinate range
+    x_edges = hp.uniform_edges(0.0, GEOMETRY.W, dx)
+    xc = 0.5 * (x_edges[1:] + x_edges[:-1])
+    mid = 0.5 * (GEOMETRY.x_feed + GEOMETRY.W)
+    small_up, small_down = [6, 8, 6, 8], [5, 5, 5, 5]          # small particles of 10 per half-gap
+    rows = []
+    for x in xc:
+        top = fit.z_surface(x, t_end)
+        for k in range(4):
+            z = lo + (k + 0.5) * (hi - lo) / 4
+            n_small = (small_up if x < mid else small_down)[k]
+            for y in (0.002, 0.008):                           # front slice and the rest of the gap
+                rows += [(x, y, top + z / cos_a, 1 if j < n_small else 2) for j in range(10)]
+    n_deposit = len(rows)
+    rows += [(x, 0.006, fit.z_surface(x, t_end) - 0.75 * delta / cos_a, 1) for x in xc]  # flowing layer's foot
+    x, y, z, kind = (np.array(c) for c in zip(*rows))
+    pos = np.column_stack([x, y, z])
+    radius = np.full(len(x), 0.75e-3)                          # equal sizes: volume fractions = number fractions
+    var = hp.deposit_variants(pos, radius, kind, fit, GEOMETRY, t_start, t_end, delta, dx, d_large=d_l)
+    central = var[var["variant"] == hp.DEPOSIT_CENTRAL]
+    whole = central[central["slab"] == 0]
+    assert whole["n"].sum() == n_deposit
+    for k in range(1, 5):                                      # each slab holds its own 20 per column
+        assert (central[central["slab"] == k]["n"] == 20).all()
+    c, se, per = hp.deposit_contrast_error(var, hp.DEPOSIT_CENTRAL, GEOMETRY.x_feed, GEOMETRY.W)
+    assert c == pytest.approx(0.2) and per == pytest.approx([0.1, 0.3, 0.1, 0.3])
+    assert se == pytest.approx(np.std([0.1, 0.3, 0.1, 0.3], ddof=1) / 2)
+    front = var[(var["variant"].str.startswith("front")) & (var["slab"] == 0)]
+    assert front["n"].sum() == n_deposit // 2
+    assert hp.deposit_contrast_error(var, front["variant"].iloc[0], GEOMETRY.x_feed, GEOMETRY.W)[0] == pytest.approx(0.2)
+    higher = var[(var["variant"] == "from 0.5 δ below the surface") & (var["slab"] == 0)]
+    assert higher["n"].sum() == n_deposit + len(xc)            # takes in the foot of the flowing layer
+    with pytest.raises(ValueError, match="slab"):
+        hp.deposit_concentration(pos, radius, kind, fit, GEOMETRY, t_start, t_end, delta, dx, slab=(4, 4))
+
+
 def test_the_origin_is_each_columns_own_free_surface():
     """Columns whose surface lies h(x) above or below the fitted plane (an S-shaped heap): measured from the
     local surface, u_s and the collapsed profile are those of the flat heap; from the plane, u_s is off by

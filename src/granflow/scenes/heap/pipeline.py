@@ -123,8 +123,12 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
     if len(species) == 2 and np.isfinite(scalars.get("delta_mean", np.nan)):
         deposit = hp.deposit_concentration(last.position, last.radius, last.type, fit, geometry,
                                            float(t[0]), float(t[-1]), scalars["delta_mean"], dx)
+        d_large = max(float(sp["d"]) for sp in species)
+        deposit_variants = hp.deposit_variants(last.position, last.radius, last.type, fit, geometry,
+                                               float(t[0]), float(t[-1]), scalars["delta_mean"], dx, d_large=d_large)
     else:
         deposit = pd.DataFrame(columns=["x_lab", "c_s", "n"])
+        deposit_variants = pd.DataFrame(columns=["variant", "slab", "x_lab", "c_s", "n", "volume"])
     requested = record["case"]["feed_rate"]
     tol = record["protocol"]["feed_rate_tol"]
     spread = fit.rise_by_x.loc[fit.rise_by_x["in_fit"].astype(bool), "v_r"]
@@ -147,7 +151,8 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
     })
     tables = {"per_x": per_x, "profile": profile, "collapse": collapsed,
               "surface": hp.surface_table(t, x_lab, z_s), "alpha_t": fit.alpha_t, "rise_by_x": fit.rise_by_x,
-              "phi_columns": hp.phi_columns_table(np.mean(phis, axis=0), x_edges, z_edges), "deposit": deposit}
+              "phi_columns": hp.phi_columns_table(np.mean(phis, axis=0), x_edges, z_edges), "deposit": deposit,
+              "deposit_variants": deposit_variants}
     return tables, scalars
 
 

@@ -13,7 +13,7 @@ from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, Stage, Swee
 from .parameters import feed_plan, heap_parameters
 
 #: analysis tables of a case, in the order the figures read them
-TABLES = ("per_x", "profile", "collapse", "surface", "alpha_t", "rise_by_x", "phi_columns", "deposit")
+TABLES = ("per_x", "profile", "collapse", "surface", "alpha_t", "rise_by_x", "phi_columns", "deposit", "deposit_variants")
 
 
 class HeapScene(Scene):

@@ -130,7 +130,7 @@ def load_case(name: str, path: Path) -> HeapCase:
     status = json.loads((path / "run" / "status.json").read_text())
     scalars_file = path / "analysis" / "scalars.json"
     scalars = json.loads(scalars_file.read_text()) if scalars_file.exists() else {}
-    tables = {t: _table(path / "analysis" / f"{t}.csv") for t in ("per_x", "collapse", "surface", "deposit")}
+    tables = {t: _table(path / "analysis" / f"{t}.csv") for t in ("per_x", "collapse", "surface", "deposit", "deposit_variants")}
     case = HeapCase(name, path, record, status, scalars, tables)
     case.errors, case.error_note = headline_errors(case)
     return case
@@ -357,14 +357,41 @@ def deposit_check(case: HeapCase) -> Check:
     pool = dep[(dep["x_lab"] > x_pool) & (dep["n"] > 0)]
     w = pool[weight] if weight in pool else pool["n"]
     c_pool = float(np.sum(pool["c_s"] * w) / np.sum(w)) if len(pool) and np.sum(w) > 0 else float("nan")
+    se, syst, text, stat_note = _deposit_errors(case, d["contrast"], x0, W, weight)
     note = (f"volume concentration of the small species in the material laid down in the averaging window below "
             f"the flowing layer, x_lab from the feed zone's edge to the end wall, halves weighted by "
             f"{'volume (the paper: by volume)' if by_volume else 'the particles counted (no volumes in this analysis)'}: "
             f"upstream {d['upstream']:.3f}, downstream {d['downstream']:.3f} ({d['n']} particles); weighted by "
             f"number {d_n['contrast']:+.3f}. The pool at the end wall (x_lab > {x_pool * 1e3:.0f} mm, beyond the "
             f"surface's planar middle) has c_s = {c_pool:.3f}; without it the contrast is "
-            f"{d_nopool['contrast']:+.3f}. No statistical error (one deposit)" + _flux_note(case))
-    return Check(q, paper, source, d["contrast"], case=case.name, paper_range=(0.0, math.inf), note=_with(note, case))
+            f"{d_nopool['contrast']:+.3f}. {stat_note}" + _flux_note(case))
+    return Check(q, paper, source, d["contrast"], se, case=case.name, paper_range=(0.0, math.inf),
+                 note=_with(note, case), syst=syst, variants=text)
+
+
+def _deposit_errors(case: HeapCase, central: float, x0: float, W: float, weight: str):
+    """``(stat, syst, variants' text, note)`` of the deposit's contrast from analysis/deposit_variants.csv.
+
+    Stat: the spread of the contrasts of the deposit's slabs (the material of successive parts of the
+    window, :func:`~granflow.scenes.heap.analysis.layer.deposit_contrast_error`). Syst: the deposit's top
+    at 1.5 δ and 0.5 δ and the front-wall slice (subsets or supersets of the same particles: only their
+    shift beyond their own statistics counts) and the column width (the same particles binned again).
+    """
+    var = case.tables.get("deposit_variants", pd.DataFrame())
+    nan = float("nan")
+    if var.empty or "variant" not in var:
+        return nan, nan, "", "No statistical error (an analysis older than the deposit's slabs: re-analyse)"
+    c, se, per = hp.deposit_contrast_error(var, hp.DEPOSIT_CENTRAL, x0, W, weight)
+    alt = {}
+    for name in dict.fromkeys(var["variant"]):
+        if name == hp.DEPOSIT_CENTRAL:
+            continue
+        v, v_se, _ = hp.deposit_contrast_error(var, name, x0, W, weight)
+        alt[name] = v if name.startswith("columns") else (v, v_se)
+    syst, text = systematic(central, alt, se)
+    note = (f"Error: the spread of the contrasts of the deposit laid in {len(per)} equal parts of the window "
+            f"(oldest first: {', '.join(f'{x:+.3f}' for x in per)})")
+    return se, syst, text, note
 
 
 def _flux_note(case: HeapCase) -> str:

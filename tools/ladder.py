@@ -4,8 +4,8 @@
   python tools/ladder.py record  config/ladders/silo.yaml --results /work/keep/ladders
 
 A ladder file (``config/ladders/<scene>.yaml``) names a scene, its rung, a sweep and a list of
-rungs, each a set of scene-file changes (``set:``, dotted keys as ``--set``) with the knob it
-turns in words; ``planned:`` rungs are only priced. ``prepare`` writes, per rung, the changed
+rungs, each a set of scene-file changes (``set:``, dotted keys as ``--set``) or of sweep values
+(``sweep:``, replacing the ladder's for that key) with the knob it turns in words; ``planned:`` rungs are only priced. ``prepare`` writes, per rung, the changed
 scene file (validated by the scene's schema and pre-run checks exactly as a campaign's) and a
 one-scene campaign under ``<results>/<scene>/<rung>/``, prices it with the cost model
 (``granflow plan``) and prints the Snakemake command that runs it (every run resumes from its
@@ -35,6 +35,7 @@ import yaml  # noqa: E402
 from granflow import registry  # noqa: E402
 from granflow.campaign import load_campaign  # noqa: E402
 from granflow.config import apply_overrides, load_scene, load_yaml  # noqa: E402
+from granflow.yamlio import ConfigError  # noqa: E402
 from granflow.validation import case_summary  # noqa: E402
 
 
@@ -61,7 +62,8 @@ def write_rung(ladder: dict, rung: dict, results: Path) -> tuple[Path, Path]:
     out.mkdir(parents=True, exist_ok=True)
     scene_data = apply_overrides(load_yaml(ROOT / ladder["scene_file"]), _overrides(rung))
     scene_file = out / "scene.yaml"
-    head = f"# ladder rung {rung['name']}: {rung['knob']}\n# {ladder['scene_file']} with {rung.get('set') or {}}\n"
+    head = (f"# ladder rung {rung['name']}: {rung['knob']}\n# {ladder['scene_file']} with {rung.get('set') or {}}"
+            + (f", sweep {rung['sweep']}" if rung.get("sweep") else "") + "\n")
     text = head + yaml.safe_dump(scene_data, sort_keys=False, allow_unicode=True)
     if not scene_file.exists() or scene_file.read_text() != text:   # unchanged: keep its time stamp
         scene_file.write_text(text)
@@ -69,7 +71,7 @@ def write_rung(ladder: dict, rung: dict, results: Path) -> tuple[Path, Path]:
     campaign = {"rung": rung.get("rung", ladder["rung"]), "results_dir": str(out / "results"),
                 "scenes": {name: {"enabled": False} for name in registry.names() if name != ladder["scene"]}}
     campaign["scenes"][ladder["scene"]] = {"enabled": True, "scene_file": str(scene_file),
-                                           "sweep": ladder.get("sweep") or {}}
+                                           "sweep": {**(ladder.get("sweep") or {}), **(rung.get("sweep") or {})}}
     campaign_file = out / "campaign.yaml"
     text = yaml.safe_dump(campaign, sort_keys=False)
     if not campaign_file.exists() or campaign_file.read_text() != text:
@@ -93,9 +95,15 @@ def targets(plan_: dict) -> list[str]:
 
 def cmd_prepare(args) -> int:
     ladder = load_ladder(args.ladder)
+    refused = 0
     for rung in ladder["rungs"] + ladder.get("planned", []):
-        _, campaign = write_rung(ladder, rung, args.results)
-        p = plan(campaign, priced_only=rung in ladder.get("planned", []))
+        try:
+            _, campaign = write_rung(ladder, rung, args.results)
+            p = plan(campaign, priced_only=rung in ladder.get("planned", []))
+        except ConfigError as e:   # a rung the scene refuses: said in one line, the other rungs go on
+            print(f"# {rung['name']}: {rung['knob']} [refused]: {e}")
+            refused += 1
+            continue
         tot = p["total"]
         kind = "planned (not run)" if rung in ladder.get("planned", []) else "to run"
         print(f"# {rung['name']}: {rung['knob']} [{kind}]: {tot.get('cpu_hours', float('nan')):.2f} CPU-h upper bound, "
@@ -103,7 +111,7 @@ def cmd_prepare(args) -> int:
         if rung not in ladder.get("planned", []):
             print("snakemake " + " ".join(shlex.quote(t) for t in targets(p))
                   + f" --configfile {shlex.quote(str(campaign))} --cores 1 --set-threads simulate=1")
-    return 0
+    return 2 if refused else 0
 
 
 def rung_checks(ladder: dict, rung: dict, results: Path) -> tuple[list, list[dict]]:
@@ -169,11 +177,11 @@ def table(ladder: dict, results: Path) -> pd.DataFrame:
     for rung in ladder["rungs"]:
         checks, cases = rung_checks(ladder, rung, results)
         state = "run"
-        if not checks and not rung.get("set") and not rung.get("rung"):
+        if not checks and not rung.get("set") and not rung.get("rung") and not rung.get("sweep"):
             checks, cases = committed_checks(ladder)
             state = "run (the committed record)"
         cpu = sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"]))
-        expected = math.prod(len(v) for v in (ladder.get("sweep") or {}).values())
+        expected = math.prod(len(v) for v in {**(ladder.get("sweep") or {}), **(rung.get("sweep") or {})}.values())
         if checks and state == "run" and len(cases) < expected:
             rows.append({"rung": rung["name"], "knob": rung["knob"], "cases": len(cases), "cpu_hours": cpu,
                          "state": f"incomplete: {len(cases)} of {expected} cases analysed"})

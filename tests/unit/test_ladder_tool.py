@@ -58,3 +58,21 @@ def test_the_base_falls_back_to_the_committed_record():
     checks, cases = ladder_tool.committed_checks(ladder)
     assert checks and all(c.quantity.startswith("u_max/u_slip") for c in checks)
     assert all("phi~0.61" in c.case for c in checks) and all("phi~0.61" in c["dir"] for c in cases)
+
+
+def test_a_rung_may_change_one_sweep_value_and_a_refused_rung_is_one_line(tmp_path, capsys, monkeypatch):
+    ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "heap.yaml")
+    rung = next(r for r in ladder["rungs"] if r["name"] == "mdot10")
+    scene_file, campaign_file = ladder_tool.write_rung(ladder, rung, tmp_path)
+    campaign = yaml.safe_load(campaign_file.read_text())
+    assert campaign["scenes"]["heap"]["sweep"] == {"mixture": ["bi1-2"], "feed_rate": [0.01]}
+    assert "sweep {'feed_rate': [0.01]}" in scene_file.read_text().splitlines()[1]
+    # 120 g/s through the validation rung's narrow feed: the scene refuses it, prepare says so and goes on
+    ladder["rungs"] = [{"name": "narrow120", "knob": "120 g/s, feed as it is", "sweep": {"feed_rate": [0.12]}}]
+    ladder["planned"] = []
+    monkeypatch.setattr(ladder_tool, "load_ladder", lambda path: ladder)
+    args = type("Args", (), {"ladder": ROOT / "config" / "ladders" / "heap.yaml", "results": tmp_path})
+    assert ladder_tool.cmd_prepare(args) == 2
+    out = capsys.readouterr().out
+    assert "# narrow120: 120 g/s, feed as it is [refused]:" in out and "feed_rate = 0.12" in out
+    assert "Traceback" not in out

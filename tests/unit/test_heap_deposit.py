@@ -53,3 +53,42 @@ def test_species_flux_above_the_surface_from_a_known_profile():
     assert g["flux_above_d_max_1"] == pytest.approx(1 / 6)
     still = rows.assign(u=0.0)
     assert np.isnan(hp.species_flux_above(still, 2)["flux_above_surface_1"])
+
+
+def test_fed_particles_rest_position_and_flight_from_known_paths():
+    """A small particle fed at frame 2 flies 1 cm a frame 10 mm above a flat surface for 4 frames, then
+    rolls 5 mm a frame on it; a large one rolls 2 mm a frame on the surface; one fed at frame 8 (too late
+    to follow) and one present from the start are not counted."""
+    import granflow.scenes.heap.analysis as hp
+    from postproc.frame import ParticleFrame
+
+    geometry = hp.HeapGeometry(W=0.12, T=0.01, theta_deg=24.0, x_feed=0.02)
+    x_lab = np.linspace(0.005, 0.115, 12)
+    n_f = 11
+    z_s = np.zeros((n_f, len(x_lab)))
+    z_s[:, 0] = np.nan                                      # a column without a surface is skipped
+
+    def path(f):
+        rows = [(1, 2, 0.05, -0.01)]                        # in the bed from the start
+        if f >= 2:
+            k = f - 2
+            x10 = 0.01 + 0.01 * min(k, 4) + 0.005 * max(k - 4, 0)
+            rows.append((10, 1, x10, 0.01 if k < 4 else 0.0))
+            rows.append((11, 2, 0.01 + 0.002 * k, 0.0))
+        if f >= 8:
+            rows.append((12, 1, 0.01, 0.05))
+        ids, kinds, xs, zs = (np.array(c) for c in zip(*rows))
+        pos = np.column_stack([xs, np.full(len(xs), 0.005), zs])
+        return ParticleFrame(timestep=f, box=np.zeros((3, 2)), position=pos, velocity=np.zeros_like(pos),
+                             mass=np.ones(len(xs)), radius=np.full(len(xs), 5e-4), type=kinds, id=ids)
+
+    t = hp.fed_travel([path(f) for f in range(n_f)], x_lab, z_s, geometry, 2, d_above=2e-3)
+    assert t["travel_n_1"] == 1 and t["travel_n_2"] == 1
+    assert t["travel_flight_1"] == pytest.approx(0.035)          # 3 whole steps above, one half
+    assert t["travel_flight_share_1"] == pytest.approx(0.035 / 0.06)
+    assert t["travel_rest_x_over_L_1"] == pytest.approx(0.5)     # x = 0.07 on a 0.1 m flowing length
+    assert t["travel_flight_2"] == 0.0 and t["travel_flight_share_2"] == 0.0
+    assert t["travel_rest_x_over_L_2"] == pytest.approx(0.06)
+    # nobody fed: counts 0, means NaN
+    still = hp.fed_travel([path(0)] * 5, x_lab, z_s[:5], geometry, 2, d_above=2e-3)
+    assert still["travel_n_1"] == 0 and np.isnan(still["travel_rest_x_over_L_1"])

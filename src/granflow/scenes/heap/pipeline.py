@@ -95,6 +95,8 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
     acc.prepare()
     for frame in frames:
         hp.accumulate_frame(acc, frame, moving, dt)
+    # where the particles fed in the window's first half came to rest, and how far they flew over the heap
+    travel = hp.fed_travel(frames, x_lab, z_s, geometry, len(species), max(float(sp["d"]) for sp in species))
     del frames
     profile = acc.conclude()
 
@@ -113,6 +115,7 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
         beds.extend(bed[np.isfinite(bed)])
     phi_bed = float(np.mean(beds)) if beds else float("nan")
     scalars.update(hp.mass_balance(fit, geometry, density=record["density"], feed_rate=rate, phi_bed=phi_bed))
+    scalars.update(travel)
     if scalars.get("origin") == "local":  # z of every column from its own free surface, as per_x measured it
         profile = hp.shift_to_surface(profile, per_x.set_index("x")["z_surface_local"])
     collapsed = hp.collapse(profile, per_x, moving.v_r_normal)

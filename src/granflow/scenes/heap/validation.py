@@ -395,10 +395,28 @@ def _deposit_errors(case: HeapCase, central: float, x0: float, W: float, weight:
 
 
 def _flux_note(case: HeapCase) -> str:
-    """The measured mechanism: each species' share of its downstream flux carried above the surface."""
+    """The measured mechanism: each species' share of its downstream flux carried above the surface, and
+    where its particles fed in the window came to rest after how much flight over the heap."""
     small, large = (case.get(f"flux_above_surface_{k}") for k in (1, 2))
     if not (math.isfinite(small) and math.isfinite(large)):
         return ""
+    return _flux_share_note(case, small, large) + _travel_note(case)
+
+
+def _travel_note(case: HeapCase) -> str:
+    rest, flight, share = ([case.get(f"travel_{key}_{k}") for k in (1, 2)]
+                           for key in ("rest_x_over_L", "flight", "flight_share"))
+    if not all(math.isfinite(v) for v in rest + flight):
+        return ""
+    n = [int(case.get(f"travel_n_{k}")) for k in (1, 2)]
+    d_l = max(float(sp["d"]) for sp in case.record["species"])
+    return (f". Particles fed in the window's first half (followed by id, {n[0]} small, {n[1]} large) came to rest "
+            f"at mean x/L = {rest[0]:.2f} (small) and {rest[1]:.2f} (large); they flew {1e3 * flight[0]:.0f} and "
+            f"{1e3 * flight[1]:.0f} mm more than {1e3 * d_l:g} mm above the surface ({share[0]:.0%} and {share[1]:.0%} "
+            f"of their streamwise travel; scenes/heap/analysis/travel.py)")
+
+
+def _flux_share_note(case: HeapCase, small: float, large: float) -> str:
     small_d, large_d = (case.get(f"flux_above_d_max_{k}") for k in (1, 2))
     return (f". Mechanism measured: the small species carries {small:.0%} of its downstream flux above the "
             f"surface, the large {large:.0%} ({small_d:.0%} and {large_d:.0%} more than a large diameter above "

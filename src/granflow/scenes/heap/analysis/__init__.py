@@ -3,3 +3,4 @@ from .surface import PHI_C, ALPHA_PLANAR_MIDDLE, EXPONENTIAL_DEPTH_FACTOR, EXPON
 from .kinematics import MovingFrame, KinematicsAccumulator, accumulate_frame, surface_velocity  # noqa: F401
 from .layer import local_surface, shift_to_surface, ExponentialDepth, delta_exponential, delta_linear, delta_cutoff, delta_eq31, normal_velocity_linear, normal_velocity_exponential, TailFit, fit_exponential_tail, PowerLawFit, fit_power_law, mass_balance, analyse_heap, collapse, deposit_concentration, delta_over_local_d, deposit_contrast, deposit_variants, deposit_contrast_error, DEPOSIT_CENTRAL, DEPOSIT_SLABS  # noqa: F401
 from .flux import species_flux_above  # noqa: F401
+from .travel import fed_travel  # noqa: F401

@@ -5,72 +5,9 @@ kernel (:mod:`postproc.kernels`) and the coordinates
 (:mod:`postproc.coordinates`). :class:`FieldAccumulator` follows the analysis
 lifecycle *prepare, accumulate one frame, conclude*.
 
-Per frame only additive primitives are accumulated, as kernel-weighted
-densities :math:`\\langle q \\rangle_n = \\sum_i w_{in} q_i` at every node
-:math:`n` (for Heaviside bins :math:`w_{in} = 1/V_n`, so these are bin sums over
-the bin volume):
-
-=====================  =================================================
-primitive              :math:`q_i`
-=====================  =================================================
-``number``             :math:`1`
-``volume``             :math:`\\tfrac43 \\pi r_i^3`
-``mass``               :math:`m_i`
-``momentum``           :math:`m_i v_{i,a}`
-``momentum_flux``      :math:`m_i v_{i,a} v_{i,b}` (xx yy zz xy xz yz)
-``inertia``            :math:`I_i = \\tfrac{1}{10} m_i d_i^2`
-``angular_momentum``   :math:`I_i \\Omega_{i,a}`
-``spin_energy``        :math:`I_i |\\boldsymbol\\Omega_i|^2`
-``contact_stress``     contact stress times volume (compressive positive)
-=====================  =================================================
-
-They are averaged over frames (overbar) and the fields derived **once**, from
-the averages (Debnath et al. 2022, eqs 2.1-2.4):
-
-.. math::
-
-    n = \\overline{\\textstyle\\sum_i w_i}\\, V_n, \\quad
-    \\phi = \\overline{\\textstyle\\sum_i w_i \\tfrac43\\pi r_i^3}, \\quad
-    \\rho = \\overline{\\textstyle\\sum_i w_i m_i},
-
-.. math::
-
-    \\mathbf{u} = \\frac{\\overline{\\sum_i w_i m_i \\mathbf{v}_i}}{\\rho}, \\quad
-    \\boldsymbol{\\Omega} = \\frac{\\overline{\\sum_i w_i I_i \\boldsymbol\\Omega_i}}
-    {\\overline{\\sum_i w_i I_i}},
-
-.. math::
-
-    \\sigma^k_{ab} = \\overline{\\textstyle\\sum_i w_i m_i v_{i,a} v_{i,b}} - \\rho\\, u_a u_b,
-    \\quad
-    \\sigma^c_{ab} = \\overline{\\textstyle\\sum_i w_i \\sigma^{c}_{i,ab} V_i},
-    \\quad \\sigma = \\sigma^c + \\sigma^k,
-
-.. math::
-
-    T = \\frac{\\operatorname{tr}\\sigma^k
-    + \\overline{\\sum_i w_i I_i |\\boldsymbol\\Omega_i|^2}
-    - |\\overline{\\sum_i w_i I_i \\boldsymbol\\Omega_i}|^2 / \\overline{\\sum_i w_i I_i}}
-    {6\\, \\overline{\\sum_i w_i}},
-
-which for a single frame and Heaviside bins are
-:math:`T = \\frac{1}{6N}\\sum_i [m_i (\\mathbf v_i - \\mathbf u)^2 +
-I_i(\\boldsymbol\\Omega_i - \\boldsymbol\\Omega)^2]` and
-:math:`\\sigma = \\frac1V \\sum_i [\\sigma^c_i V_i + m_i (\\mathbf v_i - \\mathbf u)
-(\\mathbf v_i - \\mathbf u)]`.
-
-Pressures are a third of the traces (compressive positive, like the stresses;
-the silo paper calls the trace itself the pressure, we divide by three):
-
-.. math::
-
-    p^k = \\tfrac13 \\operatorname{tr}\\sigma^k, \\quad
-    p^c = \\tfrac13 \\operatorname{tr}\\sigma^c, \\quad p = p^k + p^c
-    \\qquad (\\texttt{pk, pc, p}).
-
-Convention: because primitives are averaged first, fluctuations of the node's
-mean velocity (and spin) *between frames* count as kinetic stress and as
-temperature, exactly like fluctuations between particles within a frame.
+Per frame only additive primitives are accumulated, and the fields are derived
+once, from their averages over frames: the primitives, the formulas (species
+partials included) and their conventions are in :mod:`postproc.fields_definitions`.
 
 Components. With Cartesian coordinates
 (:class:`~postproc.coordinates.CartesianCoordinates`, e.g.
@@ -99,28 +36,6 @@ which removes the spurious layering of :math:`\\phi` in slabs narrower than a
 few diameters (near walls, say). Only the ``volume`` primitive changes
 (:math:`\\phi` and the species :math:`\\phi_j`); parts of spheres beyond the
 outer edges are lost.
-
-Species (Rubio-Largo et al. 2016, eqs 2 and 8). Given ``species`` (type ids),
-mass, volume, momentum and momentum flux are also accumulated per species
-:math:`j` (each particle deposits into its own species' arrays only; the totals
-are their sums), and after averaging
-
-.. math::
-
-    \\rho_j = \\overline{\\textstyle\\sum_{i \\in j} w_i m_i}, \\quad
-    \\phi_j = \\overline{\\textstyle\\sum_{i \\in j} w_i \\tfrac43\\pi r_i^3},
-
-.. math::
-
-    s^j_{ab} = \\overline{\\textstyle\\sum_{i\\in j} w_i m_i v'_{ia} v'_{ib}}
-    = F^j_{ab} - V_a P^j_b - P^j_a V_b + \\rho_j V_a V_b, \\quad
-    \\mathbf v'_i = \\mathbf v_i - \\mathbf V,
-
-with :math:`\\mathbf V = \\mathbf u` the *total* velocity field and
-:math:`F^j, \\mathbf P^j` the species' momentum flux and momentum densities;
-:math:`\\sum_j s^j = \\sigma^k` exactly. Columns ``rho_s<id>``, ``phi_s<id>``,
-``sigmak_s<id>_<comp>`` and ``pk_s<id>`` (:math:`\\tfrac13\\operatorname{tr} s^j`),
-each present when its total field is requested.
 
 Contact stress from contacts (paper eq. 5). Given a
 :class:`~postproc.contacts.ContactFrame` to :meth:`FieldAccumulator.accumulate`,
@@ -178,8 +93,8 @@ A node whose field is NaN in some sub-blocks (it held no mass then) takes
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, replace
-from typing import Callable, Iterable, Sequence
+from dataclasses import replace
+from typing import Iterable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -187,6 +102,8 @@ import pandas as pd
 from .blocks import _SUBBLOCKS_PER_BLOCK, ConcludedResult, _BlockedSums, time_average_errors
 from .contacts import ContactFrame, branch_quadrature
 from .coordinates import XCoordinates
+from .fields_definitions import (ALL_FIELDS, FIELD_PRIMITIVES, FIELDS, PRESSURES, PRIMITIVES,  # noqa: F401 (re-exported)
+                                 SPECIES_FIELDS, SPECIES_PRIMITIVES, VECTOR, derive, field_columns, species_columns)
 from .frame import ParticleFrame
 from .kernels import HeavisideBins, channel_bin_edges
 from .overlap import _slab_pairs
@@ -198,183 +115,6 @@ SPARSE_GRID_FRACTION = 0.01
 
 class SparseGridWarning(UserWarning):
     """The grid holds (almost) none of the particles' weight: a wrong axis or range, most likely."""
-
-
-#: Field names in output order (the default set).
-FIELDS = ("n", "phi", "rho", "u", "Omega", "T", "sigmac", "sigmak", "sigma")
-#: Pressures, a third of the stress traces (compressive positive).
-PRESSURES = ("pk", "pc", "p")
-#: Every field an accumulator can compute, in output order.
-ALL_FIELDS = FIELDS + PRESSURES
-#: Fields with per-species partials when ``species`` is given.
-SPECIES_FIELDS = ("phi", "rho", "sigmak", "pk")
-
-_VECTOR = ("x", "y", "z")
-_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
-
-
-@dataclass(frozen=True)
-class _Primitive:
-    """An additive per-particle quantity: its width, the frame attribute it needs, its values."""
-
-    width: int
-    requires: str | None
-    values: Callable[[ParticleFrame], np.ndarray]
-
-
-def _outer_pairs(weight: np.ndarray, vec: np.ndarray) -> np.ndarray:
-    out = np.empty((len(vec), len(_PAIRS)))
-    wv = weight[:, None] * vec
-    for k, (a, b) in enumerate(_PAIRS):
-        np.multiply(wv[:, a], vec[:, b], out=out[:, k])
-    return out
-
-
-_PRIMITIVES: dict[str, _Primitive] = {
-    "number": _Primitive(1, None, lambda f: np.ones((len(f.mass), 1))),
-    "volume": _Primitive(1, None, lambda f: f.volume[:, None]),
-    "mass": _Primitive(1, None, lambda f: np.asarray(f.mass, float)[:, None]),
-    "momentum": _Primitive(3, None, lambda f: f.mass[:, None] * f.velocity),
-    "momentum_flux": _Primitive(6, None, lambda f: _outer_pairs(f.mass, f.velocity)),
-    "inertia": _Primitive(1, "omega", lambda f: f.moment_of_inertia[:, None]),
-    "angular_momentum": _Primitive(3, "omega", lambda f: f.moment_of_inertia[:, None] * f.omega),
-    "spin_energy": _Primitive(
-        1, "omega", lambda f: (f.moment_of_inertia * np.sum(f.omega**2, axis=1))[:, None]
-    ),
-    "contact_stress": _Primitive(
-        6, "contact_stress_volume", lambda f: np.asarray(f.contact_stress_volume, float)
-    ),
-}
-
-_KINETIC = ("mass", "momentum", "momentum_flux")
-_FIELD_PRIMITIVES: dict[str, tuple[str, ...]] = {
-    "n": ("number",),
-    "phi": ("volume",),
-    "rho": ("mass",),
-    "u": ("mass", "momentum"),
-    "Omega": ("inertia", "angular_momentum"),
-    "T": ("number", *_KINETIC, "inertia", "angular_momentum", "spin_energy"),
-    "sigmac": ("contact_stress",),
-    "sigmak": _KINETIC,
-    "sigma": (*_KINETIC, "contact_stress"),
-    "pk": _KINETIC,
-    "pc": ("contact_stress",),
-    "p": (*_KINETIC, "contact_stress"),
-}
-#: Per-species primitives of the partial fields.
-_SPECIES_PRIMITIVES: dict[str, tuple[str, ...]] = {
-    "phi": ("volume",),
-    "rho": ("mass",),
-    "sigmak": _KINETIC,
-    "pk": _KINETIC,
-}
-
-
-def field_columns(field: str, components: Sequence[str] = _VECTOR) -> list[str]:
-    """Output column names of one field, e.g. ``u`` -> ``u_x, u_y, u_z``.
-
-    ``components`` names the basis (``("r", "t", "z")`` for ``rz`` fields).
-    """
-    if field in ("u", "Omega"):
-        return [f"{field}_{c}" for c in components]
-    if field in ("sigmac", "sigmak", "sigma"):
-        return [f"{field}_{components[a]}{components[b]}" for a, b in _PAIRS]
-    return [field]
-
-
-def species_columns(field: str, species_id: int, components: Sequence[str] = _VECTOR) -> list[str]:
-    """Columns of a species partial, e.g. ``("sigmak", 3)`` -> ``sigmak_s3_xx ...``."""
-    if field == "sigmak":
-        return [f"sigmak_s{species_id}_{components[a]}{components[b]}" for a, b in _PAIRS]
-    return [f"{field}_s{species_id}"]
-
-
-def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
-    """num / den, NaN where den is zero (empty nodes)."""
-    return np.divide(num, den, out=np.full(np.broadcast(num, den).shape, np.nan), where=den > 0)
-
-
-def _kinetic_stress(mass: np.ndarray, momentum: np.ndarray, flux: np.ndarray) -> np.ndarray:
-    """:math:`F_{ab} - P_a P_b / \\rho`, zero (not NaN) where there is no mass."""
-    pp = np.column_stack([momentum[:, a] * momentum[:, b] for a, b in _PAIRS])
-    return flux - np.divide(pp, mass, out=np.zeros_like(pp), where=mass > 0)
-
-
-def _trace3(tensor: np.ndarray) -> np.ndarray:
-    """A third of the trace of (n, 6) tensors."""
-    return tensor[:, :3].sum(axis=1) / 3.0
-
-
-def _derive(mean: dict[str, np.ndarray], fields: Sequence[str], node_volumes,
-            components: Sequence[str] = _VECTOR, species: Sequence[dict[str, np.ndarray]] = (),
-            species_ids: Sequence[int] = ()) -> dict[str, np.ndarray]:
-    """Fields from frame-averaged primitive densities (see module docstring)."""
-    out: dict[str, np.ndarray] = {}
-    if {"sigmak", "sigma", "T", "pk", "p"} & set(fields):
-        kinetic = _kinetic_stress(mean["mass"], mean["momentum"], mean["momentum_flux"])
-    for field in fields:
-        if field == "n":
-            values = mean["number"][:, 0] * node_volumes
-        elif field == "phi":
-            values = mean["volume"][:, 0]
-        elif field == "rho":
-            values = mean["mass"][:, 0]
-        elif field == "u":
-            values = _ratio(mean["momentum"], mean["mass"])
-        elif field == "Omega":
-            values = _ratio(mean["angular_momentum"], mean["inertia"])
-        elif field == "T":
-            spin = mean["angular_momentum"]
-            i = mean["inertia"][:, 0]
-            rotational = mean["spin_energy"][:, 0] - np.divide(
-                np.sum(spin**2, axis=1), i, out=np.zeros_like(i), where=i > 0
-            )
-            translational = kinetic[:, :3].sum(axis=1)
-            values = _ratio(translational + rotational, 6.0 * mean["number"][:, 0])
-        elif field == "sigmac":
-            values = mean["contact_stress"]
-        elif field == "sigmak":
-            values = kinetic
-        elif field == "sigma":
-            values = mean["contact_stress"] + kinetic
-        elif field == "pk":
-            values = _trace3(kinetic)
-        elif field == "pc":
-            values = _trace3(mean["contact_stress"])
-        elif field == "p":
-            values = _trace3(kinetic) + _trace3(mean["contact_stress"])
-        values = values.reshape(len(values), -1)
-        out.update({c: values[:, k] for k, c in enumerate(field_columns(field, components))})
-    if species:
-        out.update(_derive_species(mean, fields, components, species, species_ids))
-    return out
-
-
-def _derive_species(mean, fields, components, species, species_ids) -> dict[str, np.ndarray]:
-    """Per-species partial fields (module docstring, eqs 2 and 8 of Rubio-Largo et al.)."""
-    out: dict[str, np.ndarray] = {}
-    partial = [f for f in SPECIES_FIELDS if f in fields]
-    if {"sigmak", "pk"} & set(partial):
-        m = mean["mass"]
-        velocity = np.divide(mean["momentum"], m, out=np.zeros_like(mean["momentum"]), where=m > 0)
-    for field in partial:
-        for sid, sp in zip(species_ids, species):
-            if field == "phi":
-                values = sp["volume"][:, 0]
-            elif field == "rho":
-                values = sp["mass"][:, 0]
-            else:
-                p, ms = sp["momentum"], sp["mass"][:, 0]
-                values = np.column_stack([
-                    sp["momentum_flux"][:, k] - velocity[:, a] * p[:, b] - p[:, a] * velocity[:, b]
-                    + ms * velocity[:, a] * velocity[:, b]
-                    for k, (a, b) in enumerate(_PAIRS)
-                ])
-                if field == "pk":
-                    values = _trace3(values)
-            values = values.reshape(len(values), -1)
-            out.update({c: values[:, k] for k, c in enumerate(species_columns(field, sid, components))})
-    return out
 
 
 class FieldAccumulator(ConcludedResult):
@@ -489,7 +229,7 @@ class FieldAccumulator(ConcludedResult):
     @property
     def components(self) -> tuple[str, ...]:
         """Names of the vector components (``x y z`` or ``r t z``)."""
-        return tuple(getattr(self.coordinates, "components", _VECTOR))
+        return tuple(getattr(self.coordinates, "components", VECTOR))
 
     # lifecycle -----------------------------------------------------------------
 
@@ -628,31 +368,31 @@ class FieldAccumulator(ConcludedResult):
         fields, omitted = [], {}
         for field in self.requested_fields:
             lacking = set()
-            for p in _FIELD_PRIMITIVES[field]:
+            for p in FIELD_PRIMITIVES[field]:
                 if p == "contact_stress":
                     if self._contact_source is None:
                         lacking.add("contacts or contact_stress_volume")
-                elif _PRIMITIVES[p].requires and getattr(frame, _PRIMITIVES[p].requires) is None:
-                    lacking.add(_PRIMITIVES[p].requires)
+                elif PRIMITIVES[p].requires and getattr(frame, PRIMITIVES[p].requires) is None:
+                    lacking.add(PRIMITIVES[p].requires)
             if lacking:
                 omitted[field] = f"frames lack {', '.join(sorted(lacking))}"
             else:
                 fields.append(field)
         self._fields, self._omitted = tuple(fields), omitted
-        self._primitives = tuple(p for p in _PRIMITIVES if any(p in _FIELD_PRIMITIVES[f] for f in fields))
+        self._primitives = tuple(p for p in PRIMITIVES if any(p in FIELD_PRIMITIVES[f] for f in fields))
         if self.species is not None:
-            wanted = {p for f in fields if f in _SPECIES_PRIMITIVES for p in _SPECIES_PRIMITIVES[f]}
-            self._species_primitives = tuple(p for p in _PRIMITIVES if p in wanted)
+            wanted = {p for f in fields if f in SPECIES_PRIMITIVES for p in SPECIES_PRIMITIVES[f]}
+            self._species_primitives = tuple(p for p in PRIMITIVES if p in wanted)
             # the totals of a species primitive are the sums over the species
-            self._primitives = tuple(p for p in _PRIMITIVES if p in self._primitives or p in wanted)
+            self._primitives = tuple(p for p in PRIMITIVES if p in self._primitives or p in wanted)
         self._node_volumes = self.kernel.node_volumes(self.coordinates, frame.box)
 
     def _check_frame(self, frame: ParticleFrame, contacts: ContactFrame | None) -> None:
         missing = {
-            _PRIMITIVES[p].requires
+            PRIMITIVES[p].requires
             for p in self._primitives
-            if self._per_particle(p) and _PRIMITIVES[p].requires
-            and getattr(frame, _PRIMITIVES[p].requires) is None
+            if self._per_particle(p) and PRIMITIVES[p].requires
+            and getattr(frame, PRIMITIVES[p].requires) is None
         }
         if missing:
             raise ValueError(
@@ -692,16 +432,16 @@ class FieldAccumulator(ConcludedResult):
 
     def _deposit_particles(self, frame: ParticleFrame, primitives: Sequence[str]):
         """Total densities (n_nodes, K) and per-species ones flattened to (n_nodes, S K_s)."""
-        values = np.empty((len(frame.mass), sum(_PRIMITIVES[p].width for p in primitives)))
+        values = np.empty((len(frame.mass), sum(PRIMITIVES[p].width for p in primitives)))
         k = 0
         for p in primitives:
-            width = _PRIMITIVES[p].width
-            values[:, k : k + width] = _PRIMITIVES[p].values(frame)
+            width = PRIMITIVES[p].width
+            values[:, k : k + width] = PRIMITIVES[p].values(frame)
             k += width
         points = self.coordinates.points(frame)
         exact = self.volume == "exact" and "volume" in primitives
         if exact:
-            k_volume = sum(_PRIMITIVES[p].width for p in primitives[: list(primitives).index("volume")])
+            k_volume = sum(PRIMITIVES[p].width for p in primitives[: list(primitives).index("volume")])
         if self.species is None:
             dens = self._deposit(points, values, frame.box)
             if exact:
@@ -714,7 +454,7 @@ class FieldAccumulator(ConcludedResult):
             dens[:, :, k_volume] = self._exact_volume(frame, points, groups, n_species)
         columns, k = [], 0
         for p in primitives:
-            width = _PRIMITIVES[p].width
+            width = PRIMITIVES[p].width
             if p in self._species_primitives:
                 columns.extend(range(k, k + width))
             k += width
@@ -740,7 +480,7 @@ class FieldAccumulator(ConcludedResult):
 
     def _derive(self, stacked: np.ndarray) -> dict[str, np.ndarray]:
         totals, species = self._unpack(stacked)
-        return _derive(totals, self._fields, self._node_volumes, self.components, species,
+        return derive(totals, self._fields, self._node_volumes, self.components, species,
                        self.species or ())
 
     def _unpack(self, stacked: np.ndarray):
@@ -752,14 +492,14 @@ class FieldAccumulator(ConcludedResult):
         order = [p for p in self._primitives if self._per_particle(p)]
         order += [p for p in self._primitives if not self._per_particle(p)]
         for p in order:
-            width = _PRIMITIVES[p].width
+            width = PRIMITIVES[p].width
             out[p] = stacked[:, k : k + width]
             k += width
         species = []
         for _ in self.species or ():
             sp = {}
             for p in self._species_primitives:
-                width = _PRIMITIVES[p].width
+                width = PRIMITIVES[p].width
                 sp[p] = stacked[:, k : k + width]
                 k += width
             species.append(sp)

@@ -3,7 +3,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from granflow.scenes.heap.analysis.layer import deposit_contrast
+from granflow.scenes.heap.analysis.deposit import deposit_contrast
 
 
 def _deposit():

@@ -14,7 +14,7 @@ records into
   (:func:`within_table`, :func:`summary_markdown`);
 * the measured scaling of the simulation cost with particle count and its
   extrapolation to the paper's size (:func:`cost_scaling`, :func:`extrapolate`);
-* one figure per scene (:func:`plot_error_vs_cost`).
+* one figure per scene (:func:`granflow.cost_figure.plot_error_vs_cost`).
 
 Input contract: a long DataFrame ``records``, one row per (run point,
 observable), with columns
@@ -42,24 +42,15 @@ observable), with columns
 Errors measure the distance from the finest setting *that was run*, not from
 the converged answer: an error of 0 at the reference is a definition, and a
 setting within p % of a reference that is itself not converged is only
-within p % of that reference.  Pure numpy/pandas/matplotlib; no I/O.
+within p % of that reference.  Pure numpy/pandas; no I/O (the figure: :mod:`granflow.cost_figure`).
 """
 from __future__ import annotations
 
-import textwrap
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
-from matplotlib.figure import Figure
-from matplotlib.lines import Line2D
 
-from .plotting import MARKERS, _colour, _new_figure, _unavailable
-
-#: Tolerance drawn as a dashed line in :func:`plot_error_vs_cost` (fraction).
-GUIDE_TOLERANCE = 0.05
-#: Panels per figure in :func:`plot_error_vs_cost` (2 columns).
-MAX_PANELS = 4
 #: Label of the rows of :func:`within_table` that combine every observable.
 ALL = "all"
 TABLE_COLUMNS = ["scene", "observable", "label", "knob", "tolerance", "value", "cpu_s", "cpu_h", "error",
@@ -67,14 +58,14 @@ TABLE_COLUMNS = ["scene", "observable", "label", "knob", "tolerance", "value", "
 
 
 # --------------------------------------------------------------------------- helpers
-def _num(df: pd.DataFrame, name: str) -> np.ndarray:
+def column_values(df: pd.DataFrame, name: str) -> np.ndarray:
     """Column as floats; all NaN when absent."""
     if name in df:
         return pd.to_numeric(df[name], errors="coerce").to_numpy(dtype=float)
     return np.full(len(df), np.nan)
 
 
-def _pct(fraction: float) -> str:
+def percent(fraction: float) -> str:
     """A fraction as a short percentage number (``0.123`` -> ``"12"``, ``0.0042`` -> ``"0.42"``)."""
     if not np.isfinite(fraction):
         return "n/a"
@@ -147,7 +138,7 @@ def knob_errors(records: pd.DataFrame, noise_sigmas: float = 2.0) -> pd.DataFram
     relative = np.ones(n, dtype=bool)
     note = np.full(n, "", dtype=object)
 
-    x_all, se_all, v_all = _num(out, "x"), _num(out, "se"), _num(out, "value")
+    x_all, se_all, v_all = column_values(out, "x"), column_values(out, "se"), column_values(out, "value")
     positions = pd.RangeIndex(n)
     keys = ["scene", "knob", "observable"]
     groups = pd.Series(positions, index=positions).groupby([out[k].to_numpy() for k in keys], sort=False,
@@ -269,8 +260,8 @@ def cost_scaling(records: pd.DataFrame) -> dict:
     if "scene" in records and records["scene"].nunique() > 1:
         raise ValueError(f"cost_scaling needs the records of one scene, got {sorted(records['scene'].unique())}")
     size = records[records["knob"] == "size"].drop_duplicates(subset=["knob", "value"])
-    rate = _num(size, "sim_cpu_s") / _num(size, "sim_time")
-    N = _num(size, "n_particles")
+    rate = column_values(size, "sim_cpu_s") / column_values(size, "sim_time")
+    N = column_values(size, "n_particles")
     ok = np.isfinite(rate) & (rate > 0) & np.isfinite(N) & (N > 0)
     lx, ly = np.log(N[ok]), np.log(rate[ok])
     k = int(ok.sum())
@@ -333,7 +324,7 @@ def extrapolate(cpu_s: float, n_particles: float, sim_time: float, scaling: Mapp
 def _resolution(noise: float, p: float, relative: bool) -> tuple[bool, str]:
     """``(resolved, note)``: unresolved when the noise (one standard error) exceeds ``p``."""
     if np.isfinite(noise) and noise > p:
-        return False, (f"noise ±{_pct(noise)} % exceeds {_pct(p)} %" if relative
+        return False, (f"noise ±{percent(noise)} % exceeds {percent(p)} %" if relative
                        else f"noise ±{noise:.3g} exceeds {p:g} (absolute)")
     return True, ""
 
@@ -406,7 +397,7 @@ def within_table(errors: pd.DataFrame, tolerances: Sequence[float] = (0.05, 0.10
             for obs in observables:
                 g = sk[sk["observable"] == obs]
                 label = str(g["label"].iloc[0]) if "label" in g else obs
-                ok = g[np.isfinite(_num(g, "abs_error")) & (_num(g, "abs_error") <= p)]
+                ok = g[np.isfinite(column_values(g, "abs_error")) & (column_values(g, "abs_error") <= p)]
                 if ok.empty:
                     emit(scene, obs, label, knob, p, None, "no finite reference")
                     continue
@@ -421,7 +412,7 @@ def within_table(errors: pd.DataFrame, tolerances: Sequence[float] = (0.05, 0.10
                 emit(scene, obs, label, knob, p, pick, "; ".join(notes), rel, float(pick["error"]),
                      float(pick["noise"]), pick["significant"], resolved)
             # every observable with a finite reference at once
-            with_ref = [o for o in observables if np.isfinite(_num(sk[sk["observable"] == o], "x_ref")).any()]
+            with_ref = [o for o in observables if np.isfinite(column_values(sk[sk["observable"] == o], "x_ref")).any()]
             if not with_ref:
                 emit(scene, ALL, "all observables", knob, p, None, "no finite reference")
                 continue
@@ -431,16 +422,16 @@ def within_table(errors: pd.DataFrame, tolerances: Sequence[float] = (0.05, 0.10
                 ae = gv.groupby("observable")["abs_error"].max()
                 if set(ae.index) != set(with_ref) or not (np.isfinite(ae) & (ae <= p)).all():
                     continue
-                cost = float(np.nanmin(_num(gv, "cpu_s"))) if np.isfinite(_num(gv, "cpu_s")).any() else np.inf
+                cost = float(np.nanmin(column_values(gv, "cpu_s"))) if np.isfinite(column_values(gv, "cpu_s")).any() else np.inf
                 if best is None or cost < best_cost:
                     best, best_cost = gv, cost
             if best is None:
                 emit(scene, ALL, "all observables", knob, p, None, f"no setting has every observable within "
-                                                                  f"{_pct(p)} %")
+                                                                  f"{percent(p)} %")
                 continue
-            worst = best.iloc[int(np.argmax(_num(best, "abs_error")))]
+            worst = best.iloc[int(np.argmax(column_values(best, "abs_error")))]
             pick = _cheapest(best)
-            noise = float(np.nanmax(_num(best, "noise"))) if np.isfinite(_num(best, "noise")).any() else np.nan
+            noise = float(np.nanmax(column_values(best, "noise"))) if np.isfinite(column_values(best, "noise")).any() else np.nan
             rel = bool(best["relative"].all())
             resolved, note = _resolution(noise, p, rel)
             notes = [note] if note else []
@@ -472,8 +463,8 @@ def summary_markdown(table: pd.DataFrame, tolerance: float = 0.05) -> str:
     str
         A caption line and the table; a one-line message when no row matches.
     """
-    rows = table[np.isclose(_num(table, "tolerance"), tolerance)]
-    caption = f"Cheapest setting within {_pct(tolerance)} % of the finest setting of each knob"
+    rows = table[np.isclose(column_values(table, "tolerance"), tolerance)]
+    caption = f"Cheapest setting within {percent(tolerance)} % of the finest setting of each knob"
     if rows.empty:
         return caption + ": no rows.\n"
     head = ["scene", "observable", "knob", "cheapest setting", "error ± noise [%]", "CPU-s",
@@ -497,144 +488,3 @@ def summary_markdown(table: pd.DataFrame, tolerance: float = 0.05) -> str:
                  str(r["note"] or "")]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
     return "\n".join(lines) + "\n"
-
-
-# --------------------------------------------------------------------------- figure
-def _footer(fig: Figure, footer: str, right_in: float = 0.25) -> None:
-    """Provenance footer at the bottom and fixed margins (as :func:`granflow.plotting._finish`, without saving)."""
-    chars_per_line = int(fig.get_figwidth() * 15)
-    text = "\n".join(textwrap.wrap("Provenance: " + (str(footer).strip() or "provenance not given"),
-                                   chars_per_line))
-    n_lines = text.count("\n") + 1
-    height, width = fig.get_figheight(), fig.get_figwidth()
-    bottom = (0.13 * n_lines + 0.1) / height
-    fig.subplots_adjust(left=0.85 / width, right=1 - right_in / width, bottom=bottom + 0.6 / height,
-                        top=1 - 0.6 / height, wspace=0.28, hspace=0.45)
-    fig.text(0.01, 0.01, text, ha="left", va="bottom", fontsize=7, color="0.25", family="monospace")
-
-
-def _panel(ax, obs: pd.DataFrame, knobs: list[str]) -> bool:
-    """Draw one observable's error-cost panel; return whether anything was drawn."""
-    cost = _num(obs, "cpu_s")
-    scale = np.where(obs["relative"].to_numpy(dtype=bool), 100.0, 1.0)
-    y = _num(obs, "abs_error") * scale
-    sigmas = _num(obs, "noise_sigmas") if "noise_sigmas" in obs else np.full(len(obs), 2.0)
-    band = sigmas * _num(obs, "noise") * scale
-    is_ref = obs["is_ref"].to_numpy(dtype=bool)
-    sig = obs["significant"].to_numpy(dtype=bool)
-    value = _num(obs, "value")
-    drawable = np.isfinite(cost) & (cost > 0) & np.isfinite(y)
-    on_edge = drawable & ((y <= 0) | is_ref)      # error 0: drawn on the bottom edge
-    positive = drawable & ~on_edge
-    if not drawable.any():
-        return False
-
-    levels = np.concatenate([y[positive], band[drawable & np.isfinite(band) & (band > 0)],
-                             [100 * GUIDE_TOLERANCE]])
-    floor = 10 ** (np.floor(np.log10(levels.min())) - 0.5)
-    y_draw = np.where(on_edge, floor, y)
-
-    for i, knob in enumerate(knobs):
-        k = (obs["knob"].to_numpy() == knob) & drawable
-        if not k.any():
-            continue
-        colour, marker = _colour(i), MARKERS[i % len(MARKERS)]
-        order = np.flatnonzero(k)[np.argsort(value[k], kind="stable")]
-        ax.plot(cost[order], y_draw[order], color=colour, lw=0.6, alpha=0.6, zorder=2)
-        for j in order:
-            hollow = on_edge[j] or not sig[j]
-            ax.plot(cost[j], y_draw[j], marker=marker, ms=6 if not on_edge[j] else 7, color=colour,
-                    mfc="none" if hollow else colour, mew=1.0, ls="none", zorder=4, clip_on=False)
-            text = f"{value[j]:g}" + (" ref" if on_edge[j] else "")
-            ax.annotate(text, (cost[j], y_draw[j]), xytext=(3, 3), textcoords="offset points", fontsize=5.5,
-                        color=colour, zorder=5)
-            if np.isfinite(band[j]) and band[j] > 0:
-                ax.plot(cost[j], band[j], marker="_", ms=11, mew=1.2, color="0.55", ls="none", zorder=3)
-
-    front = pareto_front(np.where(positive, cost, np.nan), np.where(positive, y, np.nan))
-    if front.any():
-        order = np.argsort(cost[front])
-        ax.step(cost[front][order], y[front][order], where="post", color="k", lw=1.0, alpha=0.7, zorder=3)
-
-    ax.axhline(100 * GUIDE_TOLERANCE, color="0.3", ls="--", lw=0.8, zorder=1)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_ylim(bottom=floor / 1.25, top=max(levels.max(), np.nanmax(y_draw)) * 3)
-    if not obs["relative"].all():
-        ax.text(0.02, 0.98, "x_ref = 0: absolute error", transform=ax.transAxes, ha="left", va="top",
-                fontsize=6, color="0.4")
-    return True
-
-
-def _legend_handles(knobs: list[str], noise_sigmas: float) -> list[Line2D]:
-    handles = [Line2D([], [], color=_colour(i), marker=MARKERS[i % len(MARKERS)], lw=0.6, label=k)
-               for i, k in enumerate(knobs)]
-    handles += [Line2D([], [], color="0.3", marker="o", mfc="none", ls="none",
-                       label=f"hollow: within {noise_sigmas:g}σ noise / ref"),
-                Line2D([], [], color="0.55", marker="_", ms=11, ls="none", label=f"{noise_sigmas:g}σ noise"),
-                Line2D([], [], color="k", lw=1.0, alpha=0.7, drawstyle="steps-post", label="Pareto front"),
-                Line2D([], [], color="0.3", ls="--", lw=0.8, label=f"{_pct(GUIDE_TOLERANCE)} %")]
-    return handles
-
-
-def plot_error_vs_cost(errors: pd.DataFrame, scene: str, footer: str) -> Figure:
-    """Error against cost of one scene, one panel per observable.
-
-    Log-log panels (at most :data:`MAX_PANELS`, two columns, the first
-    observables in order of appearance): x = CPU-seconds of the run point,
-    y = |error| against the finest setting in % (absolute where
-    :math:`x_{ref} = 0`).  One colour and marker per knob, the points of a
-    knob joined in order of the knob value and annotated with it.  The
-    reference (error 0) sits on the bottom edge as an open marker labelled
-    ``ref``.  A grey tick above each point marks ``noise_sigmas`` × noise: a
-    point below its tick is hollow (not significant).  The black step line is
-    the Pareto front over all knobs (refs and NaNs excluded), the dashed line
-    is 5 %.
-
-    Parameters
-    ----------
-    errors : DataFrame
-        Output of :func:`knob_errors` (any number of scenes).
-    scene : str
-        Scene to draw.
-    footer : str
-        Provenance (rung, size, stiffness ...) printed at the bottom.
-
-    Returns
-    -------
-    Figure
-        Agg-backed figure, not saved.
-    """
-    df = errors[errors["scene"] == scene]
-    observables = list(dict.fromkeys(df["observable"]))
-    shown = observables[:MAX_PANELS]
-    n = max(len(shown), 1)
-    ncols = 1 if n == 1 else 2
-    nrows = int(np.ceil(n / ncols))
-    fig, axes = _new_figure(nrows, ncols, (5.0 * ncols, 3.6 * nrows + 0.6))
-    axes = list(np.ravel(axes))
-    for ax in axes[n:]:
-        fig.delaxes(ax)
-    knobs = list(dict.fromkeys(df["knob"]))
-    sigmas = _num(df, "noise_sigmas")
-    noise_sigmas = float(sigmas[np.isfinite(sigmas)][0]) if np.isfinite(sigmas).any() else 2.0
-    if not shown:
-        _unavailable(axes[0], f"records of scene {scene!r}")
-    for ax, obs_name in zip(axes, shown):
-        obs = df[df["observable"] == obs_name]
-        label = str(obs["label"].iloc[0]) if "label" in obs and pd.notna(obs["label"].iloc[0]) else obs_name
-        ax.set_title(label, fontsize=9)
-        if not _panel(ax, obs, knobs):
-            _unavailable(ax, "finite error and cost")
-            continue
-        ax.set_xlabel("CPU-seconds per run point", fontsize=8)
-        ax.set_ylabel("|error| vs finest setting [%]", fontsize=8)
-        ax.tick_params(labelsize=7)
-        ax.grid(True, which="major", color="0.92", lw=0.5)
-    if shown:
-        axes[0].legend(handles=_legend_handles(knobs, noise_sigmas), fontsize=6, loc="best",
-                       framealpha=0.8)
-    fig.suptitle(f"error against cost — {scene}", fontsize=11)
-    extra = f" | {len(observables) - len(shown)} more observables not shown" if len(observables) > len(shown) else ""
-    _footer(fig, f"{footer}{extra}")
-    return fig

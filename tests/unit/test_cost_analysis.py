@@ -12,6 +12,7 @@ import pytest
 from matplotlib.figure import Figure
 
 from granflow import cost_analysis as cost
+from granflow.cost_figure import plot_error_vs_cost
 
 
 def record(scene="channel", knob="dt_fraction", value=0.1, observable="u", x=1.0, se=0.0, finest="min",
@@ -326,7 +327,7 @@ def figure_records(n_obs: int) -> pd.DataFrame:
 def test_plot_error_vs_cost(tmp_path, check_png, assert_plotted, n_obs, n_axes):
     err = cost.knob_errors(figure_records(n_obs))
     assert err["is_ref"].sum() == 3 * n_obs and err["error"].isna().sum() == 1
-    fig = cost.plot_error_vs_cost(err, "channel", footer="rung demo · W=20 d_p · k_n=1e5 · N=2700")
+    fig = plot_error_vs_cost(err, "channel", footer="rung demo · W=20 d_p · k_n=1e5 · N=2700")
     assert isinstance(fig, Figure)
     assert len(fig.axes) == n_axes
     assert [ax.get_title() for ax in fig.axes] == [f"observable {o}" for o in range(n_axes)]
@@ -353,7 +354,7 @@ def test_plot_error_vs_cost(tmp_path, check_png, assert_plotted, n_obs, n_axes):
 
 def test_plot_error_vs_cost_unknown_scene(tmp_path):
     err = cost.knob_errors(figure_records(1))
-    fig = cost.plot_error_vs_cost(err, "silo", footer="none")
+    fig = plot_error_vs_cost(err, "silo", footer="none")
     assert len(fig.axes) == 1
     assert "not available" in " ".join(t.get_text() for t in fig.axes[0].texts)
     fig.savefig(tmp_path / "empty.png")

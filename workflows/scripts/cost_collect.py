@@ -11,7 +11,8 @@ matplotlib.use("Agg")
 import pandas as pd  # noqa: E402
 
 from granflow.cost import paper_time_step  # noqa: E402
-from granflow.cost_analysis import cost_scaling, knob_errors, plot_error_vs_cost, summary_markdown, within_table  # noqa: E402
+from granflow.cost_analysis import cost_scaling, knob_errors, summary_markdown, within_table  # noqa: E402
+from granflow.cost_figure import plot_error_vs_cost  # noqa: E402
 from granflow.intermediates import read_csv, read_json, report_plainly  # noqa: E402
 
 report_plainly()

@@ -59,29 +59,49 @@ Example
 """
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import time
 import warnings as _warnings
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Iterator, Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 import pandas as pd
 
-from .contacts import ContactFrame, read_contact_dump
-from .coordinates import CartesianCoordinates, RCoordinates, RZCoordinates
-from .dump import DumpError, dump_format, missing_particle_columns, read_dump, read_dumps
-from .fields import FieldAccumulator, SparseGridWarning
+from .cg_frames import (  # noqa: F401 (describe_dropped re-exported: postproc.cg is the API)
+    Progress,
+    describe_dropped,
+    first_frames,
+    paired,
+    possible_atoms,
+    possible_radii,
+    sha256,
+)
+from .cg_options import (  # noqa: F401 (the choices, re-exported: postproc.cg is the API)
+    COORDINATES,
+    DEFAULT_BLOCKS,
+    DEFAULT_MAX_NODES,
+    GAUSSIAN_CUTOFF,
+    KERNELS,
+    FrameSelection,
+    Grid,
+    make_coordinates,
+    make_grid,
+    make_kernel,
+    parse_numbers,
+    parse_ranges,
+)
 from .cg_output import (  # noqa: F401 (the writers, re-exported: postproc.cg is the API)
     OUTPUT_NAMES,
     CGInputError,
     check_outputs,
     write_result,
 )
-from .frame import DumpFrame, ImpossibleValues, ParticleFrame, impossible_values
-from .kernels import Gaussian, HeavisideBins, Lucy
+from .contacts import read_contact_dump
+from .dump import DumpError, dump_format, missing_particle_columns, read_dump, read_dumps
+from .fields import FieldAccumulator, SparseGridWarning
+from .frame import ParticleFrame
 
 __all__ = [
     "COORDINATES",
@@ -96,217 +116,12 @@ __all__ = [
     "OUTPUT_NAMES",
 ]
 
-#: Coordinate choices.
-COORDINATES = ("x", "y", "z", "xy", "xz", "yz", "xyz", "r", "rz")
-#: Kernel choices.
-KERNELS = ("gaussian", "lucy", "heaviside")
-#: Default truncation of the Gaussian, in standard deviations.
-GAUSSIAN_CUTOFF = 3.0
-#: Default node budget (the accumulator keeps ~130 copies of the primitive
-#: densities for block errors: 250 000 nodes x 26 primitives is ~7 GB).
-DEFAULT_MAX_NODES = 100_000
-#: Blocks of consecutive frames for the standard errors.
-DEFAULT_BLOCKS = 8
 #: A grid holding fewer particle-frames than this fraction of those read is
 #: reported as (mostly) empty.
 SPARSE_FRACTION = 0.01
 
 
 _FIELDS = ("n", "phi", "rho", "u", "Omega", "T", "sigmac", "sigmak", "sigma", "pk", "pc", "p")
-
-
-
-
-# --------------------------------------------------------------------------- frames
-
-
-@dataclass(frozen=True)
-class FrameSelection:
-    """Frames by timestep: ``start <= step <= stop`` and every ``every``-th step from ``start``.
-
-    Parsed from ``START:STOP[:EVERY]`` (:meth:`parse`); an empty part is open.
-    """
-
-    start: int | None = None
-    stop: int | None = None
-    every: int | None = None
-
-    @classmethod
-    def parse(cls, text: str | None) -> "FrameSelection":
-        if text is None or text == "":
-            return cls()
-        parts = str(text).split(":")
-        if len(parts) not in (2, 3):
-            raise CGInputError(f"--frames {text!r} is not START:STOP[:EVERY] (timesteps, STOP included)")
-        values = []
-        for name, part in zip(("START", "STOP", "EVERY"), parts):
-            if part.strip() == "":
-                values.append(None)
-                continue
-            try:
-                value = int(part)
-            except ValueError:
-                raise CGInputError(f"--frames {text!r}: {name} {part!r} is not an integer timestep") from None
-            if value < 0:
-                raise CGInputError(f"--frames {text!r}: {name} {value} must be >= 0")
-            values.append(value)
-        values += [None] * (3 - len(values))
-        start, stop, every = values
-        if start is not None and stop is not None and stop < start:
-            raise CGInputError(f"--frames {text!r}: STOP {stop} is before START {start}")
-        if every is not None and every < 1:
-            raise CGInputError(f"--frames {text!r}: EVERY must be at least 1, got {every}")
-        return cls(start, stop, every)
-
-    def __call__(self, timestep: int) -> bool:
-        if self.start is not None and timestep < self.start:
-            return False
-        if self.stop is not None and timestep > self.stop:
-            return False
-        if self.every is not None and (timestep - (self.start or 0)) % self.every:
-            return False
-        return True
-
-    def describe(self) -> str:
-        if self == FrameSelection():
-            return "all frames"
-        lo = "first" if self.start is None else f"step {self.start}"
-        hi = "last" if self.stop is None else f"step {self.stop}"
-        every = "" if self.every is None else f", every {self.every} steps"
-        return f"{lo} to {hi} (included){every}"
-
-
-# --------------------------------------------------------------------------- grid
-
-
-@dataclass(frozen=True)
-class Grid:
-    """A regular grid of cells: per coordinate a range ``(lo, hi)`` cut into ``count`` cells.
-
-    Nodes are the cell centres; Heaviside bins are the cells themselves.
-    """
-
-    names: tuple[str, ...]
-    ranges: tuple[tuple[float, float], ...]
-    counts: tuple[int, ...]
-
-    @property
-    def spacing(self) -> tuple[float, ...]:
-        return tuple((hi - lo) / n for (lo, hi), n in zip(self.ranges, self.counts))
-
-    @property
-    def n_nodes(self) -> int:
-        return int(np.prod(self.counts))
-
-    @property
-    def shape(self) -> tuple[int, ...]:
-        return tuple(self.counts)
-
-    def edges(self) -> tuple[np.ndarray, ...]:
-        return tuple(np.linspace(lo, hi, n + 1) for (lo, hi), n in zip(self.ranges, self.counts))
-
-    def nodes(self) -> tuple[np.ndarray, ...]:
-        return tuple(0.5 * (e[1:] + e[:-1]) for e in self.edges())
-
-    def contains(self, points: np.ndarray) -> np.ndarray:
-        """Which points (N, d) lie inside the grid's ranges."""
-        inside = np.ones(len(points), dtype=bool)
-        for k, (lo, hi) in enumerate(self.ranges):
-            inside &= (points[:, k] >= lo) & (points[:, k] <= hi)
-        return inside
-
-    def describe(self) -> str:
-        return ", ".join(f"{n} in [{lo:g}, {hi:g}] ({c} nodes)" for n, (lo, hi), c in
-                         zip(self.names, self.ranges, self.counts))
-
-
-def _per_coordinate(values, names: Sequence[str], option: str) -> list:
-    values = list(values) if isinstance(values, (list, tuple)) else [values]
-    if len(values) == 1:
-        return values * len(names)
-    if len(values) != len(names):
-        raise CGInputError(f"{option} gives {len(values)} values but the coordinates {''.join(names)!r} "
-                           f"have {len(names)}: give one for all or one per coordinate, in the order "
-                           f"{', '.join(names)}")
-    return values
-
-
-def parse_numbers(text: str, option: str) -> list[float]:
-    """``"0.1,0.2"`` -> [0.1, 0.2], refusing anything that is not a finite number."""
-    out = []
-    for part in str(text).split(","):
-        try:
-            value = float(part)
-        except ValueError:
-            raise CGInputError(f"{option} {text!r}: {part!r} is not a number") from None
-        if not math.isfinite(value):
-            raise CGInputError(f"{option} {text!r}: {part!r} is not finite")
-        out.append(value)
-    return out
-
-
-def parse_ranges(text: str | None) -> list[tuple[float, float]] | None:
-    """``"LO:HI[,LO:HI,...]"`` -> [(lo, hi), ...]; None for None."""
-    if text is None:
-        return None
-    out = []
-    for part in str(text).split(","):
-        bounds = part.split(":")
-        if len(bounds) != 2:
-            raise CGInputError(f"--range {text!r}: {part!r} is not LO:HI")
-        lo, hi = (parse_numbers(b, "--range")[0] for b in bounds)
-        out.append((lo, hi))
-    return out
-
-
-def _coordinates(coords: str, axis):
-    if coords in ("r", "rz"):
-        cls = RCoordinates if coords == "r" else RZCoordinates
-        return cls(axis)
-    return CartesianCoordinates(coords)
-
-
-def _default_range(name: str, box: np.ndarray, axis) -> tuple[float, float]:
-    if name == "r":
-        x0, y0 = axis
-        return 0.0, float(min(x0 - box[0, 0], box[0, 1] - x0, y0 - box[1, 0], box[1, 1] - y0))
-    k = "xyz".index(name)
-    return float(box[k, 0]), float(box[k, 1])
-
-
-def make_grid(names: Sequence[str], spacing, ranges, box: np.ndarray, axis=None,
-              kernel: str = "gaussian") -> tuple[Grid, list[str]]:
-    """The grid of ``spacing`` over ``ranges`` (default from the box); notes on adjusted spacings."""
-    spacing = _per_coordinate(spacing, names, "--spacing")
-    ranges = _per_coordinate(ranges, names, "--range") if ranges is not None else [None] * len(names)
-    out_ranges, counts, notes = [], [], []
-    for name, h, rng in zip(names, spacing, ranges):
-        if not (h > 0 and math.isfinite(h)):
-            raise CGInputError(f"--spacing {h} for {name} must be a positive finite length")
-        lo, hi = rng if rng is not None else _default_range(name, box, axis)
-        if not hi > lo:
-            source = "--range" if rng is not None else f"the box (from the first frame) gives {name} range"
-            raise CGInputError(f"{source} {lo:g}:{hi:g} for {name} is empty: HI must exceed LO")
-        if name == "r" and lo < 0:
-            raise CGInputError(f"--range {lo:g}:{hi:g} for r starts below 0; the radius is >= 0")
-        n = max(1, int(round((hi - lo) / h)))
-        if abs(n * h - (hi - lo)) > 1e-9 * (hi - lo):
-            notes.append(f"spacing along {name} adjusted from {h:g} to {(hi - lo) / n:g} "
-                         f"for a whole number of cells in [{lo:g}, {hi:g}]")
-        if kernel != "heaviside" and n < 2:
-            raise CGInputError(f"--spacing {h:g} gives a single node along {name} in [{lo:g}, {hi:g}]; "
-                               f"a smooth kernel needs at least 2 nodes per coordinate")
-        out_ranges.append((float(lo), float(hi)))
-        counts.append(n)
-    return Grid(tuple(names), tuple(out_ranges), tuple(counts)), notes
-
-
-def make_kernel(kernel: str, grid: Grid, width: float | None, cutoff: float | None):
-    if kernel == "heaviside":
-        return HeavisideBins(grid.edges())
-    if kernel == "gaussian":
-        return Gaussian(width, cutoff if cutoff is not None else GAUSSIAN_CUTOFF * width, grid.nodes())
-    return Lucy(width, grid.nodes())
 
 
 # --------------------------------------------------------------------------- result
@@ -329,157 +144,6 @@ class CGResult:
     meta: dict
     grid: Grid
     warnings: list[str] = field(default_factory=list)
-
-
-class _Progress:
-    """Frames done, on one stderr line (a bar when the total is known), at most every ``interval`` s.
-
-    The first line comes one interval after the start (a refusal in the first frames is then the
-    only line); :meth:`abort` ends an open terminal line before a refusal is printed.
-    """
-
-    def __init__(self, total: int | None, stream=None, interval: float = 0.5):
-        self.total = total
-        self.stream = stream
-        self.interval = interval
-        self.tty = bool(stream is not None and getattr(stream, "isatty", lambda: False)())
-        self.start = time.perf_counter()
-        self.last = self.start
-        self.printed = False
-        self.open = False
-
-    def abort(self) -> None:
-        if self.open:
-            self.stream.write("\n")
-            self.stream.flush()
-            self.open = False
-
-    def update(self, frames: int, particles: int, step: int, final: bool = False) -> None:
-        if self.stream is None:
-            return
-        now = time.perf_counter()
-        if not final and now - self.last < (self.interval if self.tty else 30.0):
-            return
-        self.last = now
-        rate = particles / max(now - self.start, 1e-9)
-        if self.total:
-            done = min(frames / self.total, 1.0)
-            bar = "#" * int(30 * done) + "-" * (30 - int(30 * done))
-            text = f"cg [{bar}] {frames}/{self.total} frames"
-        else:
-            text = f"cg {frames} frames"
-        text += f", step {step}, {rate / 1e6:.2f} M particle-frames/s"
-        if self.tty:
-            self.stream.write("\r" + text + ("\n" if final else ""))
-            self.open = not final
-        else:
-            self.stream.write(text + "\n")
-        self.stream.flush()
-        self.printed = True
-
-
-def _sha256(path: str | os.PathLike) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 22), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
-def _first_frames(paths: Sequence[str], select: Callable[[int], bool], limit: int = 64) -> tuple[DumpFrame, DumpFrame | None]:
-    """The first selected frame and the first selected one holding atoms (None if not within ``limit``)."""
-    first = None
-    for k, frame in enumerate(read_dumps(paths, select=select)):
-        first = first or frame
-        if frame.natoms > 0:
-            return first, frame
-        if k >= limit:
-            break
-    if first is None:
-        raise CGInputError(f"no frame of {', '.join(paths)} is selected by --frames")
-    return first, None
-
-
-def _radii(frame: DumpFrame) -> np.ndarray | None:
-    """The frame's possible radii (finite and > 0: the others are refused or dropped as the frames are read)."""
-    c = frame.columns
-    if "radius" in c:
-        radii = np.asarray(c["radius"], float)
-    elif "diameter" in c:
-        radii = 0.5 * np.asarray(c["diameter"], float)
-    else:
-        return None
-    return radii[np.isfinite(radii) & (radii > 0)]
-
-
-def _atom(frame: DumpFrame, row: int) -> str:
-    """The atom in row ``row`` of the frame, by its id when the dump has one."""
-    if "id" not in frame.columns:
-        return f"atom {row + 1} of the frame (the dump has no id column)"
-    atom_id = float(frame.columns["id"][row])
-    if not math.isfinite(atom_id):
-        return f"atom {row + 1} of the frame (id {atom_id:g})"
-    return f"atom id {int(round(atom_id))}"
-
-
-def _impossible_message(path: str, frame: DumpFrame, columns: dict[str, np.ndarray], allowed: str) -> str:
-    row, column, count = ImpossibleValues.first(columns)
-    value = float(frame.columns[column][row])
-    others = f" ({count} atoms of this frame have such values)" if count > 1 else ""
-    return (f"{path}: frame at step {frame.timestep}, {_atom(frame, row)}: column {column} = {value:g} "
-            f"is not allowed: allowed {allowed}{others}")
-
-
-def _possible_atoms(path: str, frame: DumpFrame, drop_nonfinite: bool) -> tuple[DumpFrame, dict[str, int], int]:
-    """The frame, refused if an atom has a value no particle can have (:func:`~postproc.frame.impossible_values`).
-
-    A mass, radius or diameter :math:`\\le 0` is always refused; a NaN or an
-    infinity (position, velocity, spin, mass, radius) is refused unless
-    ``drop_nonfinite``, when those atoms are left out. Returns the frame (without
-    them), the dropped atoms per offending column and the number of atoms dropped.
-    """
-    found = impossible_values(frame)
-    if found is None:
-        return frame, {}, 0
-    if found.nonpositive:
-        raise CGInputError(_impossible_message(path, frame, found.nonpositive, "a positive finite number"))
-    if not drop_nonfinite:
-        raise CGInputError(_impossible_message(path, frame, found.nonfinite, "a finite number")
-                           + "; --drop-nonfinite leaves such atoms out and counts them")
-    bad = found.nonfinite_rows
-    keep = ~bad
-    kept = DumpFrame(timestep=frame.timestep, box=frame.box, boundary=frame.boundary,
-                     columns={k: v[keep] for k, v in frame.columns.items()}, time=frame.time, units=frame.units)
-    return kept, {k: int(np.count_nonzero(v)) for k, v in found.nonfinite.items()}, int(np.count_nonzero(bad))
-
-
-def _paired(frames: Iterable[ParticleFrame], contacts: Iterator[ContactFrame] | None, select,
-            strict_end: Callable[[], bool]):
-    """Yield (frame, contacts) with contacts matched by timestep; refuse unmatched ones."""
-    if contacts is None:
-        for frame in frames:
-            yield frame, None
-        return
-    def next_contact() -> ContactFrame | None:
-        for c in contacts:
-            if select(c.timestep):
-                return c
-        return None
-
-    pending = next_contact()
-    for frame in frames:
-        if pending is not None and pending.timestep < frame.timestep:
-            raise CGInputError(f"contact frame at step {pending.timestep} has no atom frame at that step "
-                               f"(the next atom frame is at step {frame.timestep}); contacts and atoms "
-                               f"must be dumped at the same steps")
-        if pending is None or pending.timestep != frame.timestep:
-            raise CGInputError(f"atom frame at step {frame.timestep} has no contact frame at that step"
-                               + ("" if pending is None else f" (the next contact frame is at step {pending.timestep})"))
-        yield frame, pending
-        pending = next_contact()
-    if pending is not None and strict_end():
-        raise CGInputError(f"contact frame at step {pending.timestep} has no atom frame at that step "
-                           f"(the atom frames end before it)")
 
 
 def coarse_grain(
@@ -614,7 +278,7 @@ def coarse_grain(
     try:
         formats = [dump_format(p) for p in paths]
         contact_formats = [dump_format(p) for p in contact_paths]
-        first, populated = _first_frames(paths, select)
+        first, populated = first_frames(paths, select)
     except DumpError as exc:
         raise CGInputError(str(exc)) from None
     names = list(first.columns)
@@ -646,14 +310,14 @@ def coarse_grain(
                     f"y in [{box[1, 0]:g}, {box[1, 1]:g}] at step {first.timestep})")
     elif axis is not None:
         raise CGInputError(f"--axis applies to --coords r and rz, not {coords}")
-    coordinates = _coordinates(coords, axis)
+    coordinates = make_coordinates(coords, axis)
     grid, notes = make_grid(coordinates.names, spacing, ranges, box, axis, kernel)
     warnings += notes
     if grid.n_nodes > int(max_nodes):
         raise CGInputError(f"the grid has {grid.n_nodes} nodes ({grid.describe()}), over the budget of "
                            f"{int(max_nodes)}: use a coarser --spacing, a smaller --range or raise --max-nodes "
                            f"(memory grows as nodes x fields x {16 * int(n_blocks)} block sums)")
-    radii = _radii(populated) if populated is not None else None
+    radii = possible_radii(populated) if populated is not None else None
     if kernel != "heaviside" and radii is not None and radii.size and width < radii.min():
         raise CGInputError(
             f"--width {width:g} is below the smallest particle radius {radii.min():g} (frame at step "
@@ -685,7 +349,7 @@ def coarse_grain(
             total_frames = sum(selected)
         except DumpError:
             total_frames = None
-    bar = _Progress(total_frames, progress)
+    bar = Progress(total_frames, progress)
 
     truncated = None
     n_frames = n_particles = n_inside = n_timed = 0
@@ -700,7 +364,7 @@ def coarse_grain(
         try:
             for path in paths:
                 for frame in read_dump(path, select=select):
-                    frame, columns, n_dropped = _possible_atoms(path, frame, drop_nonfinite)
+                    frame, columns, n_dropped = possible_atoms(path, frame, drop_nonfinite)
                     if n_dropped:
                         dropped["atom_frames"] += n_dropped
                         dropped["frames"] += 1
@@ -729,7 +393,7 @@ def coarse_grain(
         contact_stream = contact_frames()
 
     try:
-        for frame, contact in _paired(particle_frames(), contact_stream, select, lambda: truncated is None):
+        for frame, contact in paired(particle_frames(), contact_stream, select, lambda: truncated is None):
             if contact is not None and contact.branch is None:
                 contact = contact.with_branch(frame)
             try:
@@ -775,9 +439,9 @@ def coarse_grain(
         warnings.append(f"{empty_nodes} of {grid.n_nodes} nodes never held a particle's kernel weight")
 
     elapsed = time.perf_counter() - t_start
-    inputs = [{"path": p, "role": "atoms", "format": f, "bytes": os.path.getsize(p), "sha256": _sha256(p)}
+    inputs = [{"path": p, "role": "atoms", "format": f, "bytes": os.path.getsize(p), "sha256": sha256(p)}
               for p, f in zip(paths, formats)]
-    inputs += [{"path": p, "role": "contacts", "format": f, "bytes": os.path.getsize(p), "sha256": _sha256(p)}
+    inputs += [{"path": p, "role": "contacts", "format": f, "bytes": os.path.getsize(p), "sha256": sha256(p)}
                for p, f in zip(contact_paths, contact_formats)]
     meta = {
         "tool": "granflow cg (postproc.cg.coarse_grain)",
@@ -817,16 +481,6 @@ def coarse_grain(
         "particle_frames_per_s": round(n_particles / elapsed, 1) if elapsed > 0 else None,
     }
     return CGResult(fields=fields_table, meta=meta, grid=grid, warnings=warnings)
-
-
-def describe_dropped(dropped: dict, n_frames: int) -> str:
-    """``dropped`` (``meta["frames"]["dropped_nonfinite"]``) in words."""
-    if not dropped["atom_frames"]:
-        return "no atom (none had a non-finite value)"
-    columns = ", ".join(f"{k} {n}" for k, n in dropped["columns"].items())
-    n = dropped["atom_frames"]
-    return (f"{n} atom-frame{'s' if n != 1 else ''} with a NaN or infinite value, in {dropped['frames']} of "
-            f"{n_frames} frames (the first at step {dropped['first_step']}; by column: {columns})")
 
 
 def _tidy(table: pd.DataFrame, names: Sequence[str]) -> pd.DataFrame:

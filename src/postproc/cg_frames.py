@@ -1,20 +1,119 @@
-"""The frames ``granflow cg`` (:mod:`postproc.cg`) reads: the first selected ones, the atoms no particle
-can have (refused or dropped), atom and contact frames paired by step, the progress line and the
-inputs' SHA-256 (moved out of :mod:`postproc.cg`)."""
+"""The frames ``granflow cg`` (:mod:`postproc.cg`) reads: the input files, the first selected frames,
+the atom and contact frames streamed (the atoms no particle can have refused or dropped) and paired
+by step, what the frame loop counts, the progress line and the inputs' SHA-256."""
 from __future__ import annotations
 
 import hashlib
 import math
 import os
 import time
-from typing import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Callable, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
 from .cg_output import CGInputError
-from .contacts import ContactFrame
-from .dump import read_dumps
+from .contacts import ContactFrame, read_contact_dump
+from .dump import DumpError, read_dump, read_dumps
 from .frame import DumpFrame, ImpossibleValues, ParticleFrame, impossible_values
+
+
+def input_paths(dumps: Sequence[str | os.PathLike], contacts: Sequence[str | os.PathLike] | None = ()
+                ) -> tuple[list[str], list[str]]:
+    """The atom and contact dump paths as strings; refuses none given or one that is not a file."""
+    paths = [os.fspath(p) for p in dumps]
+    contact_paths = [os.fspath(p) for p in contacts or ()]
+    if not paths:
+        raise CGInputError("no dump file given")
+    for p in paths + contact_paths:
+        if not os.path.isfile(p):
+            raise CGInputError(f"dump file {p} does not exist")
+    return paths, contact_paths
+
+
+def count_selected(paths: Sequence[str], select: Callable[[int], bool]) -> int | None:
+    """The selected frames of binary dumps, from their headers alone; None if a dump cannot tell."""
+    selected = []
+    try:
+        for _ in read_dumps(paths, select=lambda step: bool(selected.append(select(step)))):
+            pass  # select says no to all
+        return sum(selected)
+    except DumpError:
+        return None
+
+
+@dataclass
+class FrameTally:
+    """What the frame loop counts as it goes; nothing grows with the number of frames."""
+
+    n_frames: int = 0
+    n_particles: int = 0
+    n_inside: int = 0  # particle-frames with their centre inside the grid
+    n_timed: int = 0  # frames with a time
+    steps: list[int] = field(default_factory=list)  # the first and the last
+    intervals: set[int] = field(default_factory=set)  # up to 16 distinct step intervals
+    times: list[float] = field(default_factory=list)  # the first and the last
+    dropped: dict = field(default_factory=lambda: {"atom_frames": 0, "frames": 0, "first_step": None,
+                                                   "columns": {}})
+    truncated: str | None = None  # the error that ended a truncated dump, when allowed
+
+    def drop(self, timestep: int, columns: dict[str, int], n_dropped: int) -> None:
+        """Count ``n_dropped`` atoms left out of the frame at ``timestep`` (per offending column)."""
+        self.dropped["atom_frames"] += n_dropped
+        self.dropped["frames"] += 1
+        if self.dropped["first_step"] is None:
+            self.dropped["first_step"] = int(timestep)
+        for k, n in columns.items():
+            self.dropped["columns"][k] = self.dropped["columns"].get(k, 0) + n
+
+    def add(self, frame: ParticleFrame, n_inside: int) -> None:
+        """Count a frame deposited, ``n_inside`` of its particles inside the grid."""
+        self.n_frames += 1
+        self.n_particles += len(frame.mass)
+        self.n_inside += n_inside
+        if self.steps:
+            if len(self.intervals) < 16:
+                self.intervals.add(int(frame.timestep) - self.steps[-1])
+            self.steps[1:] = [int(frame.timestep)]
+        else:
+            self.steps.append(int(frame.timestep))
+        if frame.time is not None:
+            self.n_timed += 1
+            self.times[min(len(self.times), 1):] = [float(frame.time)]
+
+
+def particle_frames(paths: Sequence[str], select: Callable[[int], bool], tally: FrameTally, *,
+                    density: float | None, drop_nonfinite: bool, allow_truncated: bool) -> Iterator[ParticleFrame]:
+    """The selected frames of the dumps in turn, as particle frames (:func:`possible_atoms` first).
+
+    Dropped atoms and, with ``allow_truncated``, the end of a truncated dump are recorded in ``tally``.
+    """
+    try:
+        for path in paths:
+            for frame in read_dump(path, select=select):
+                frame, columns, n_dropped = possible_atoms(path, frame, drop_nonfinite)
+                if n_dropped:
+                    tally.drop(frame.timestep, columns, n_dropped)
+                yield ParticleFrame.from_dump(frame, density=density)
+    except DumpError as exc:
+        if getattr(exc, "truncated", False) and allow_truncated:
+            tally.truncated = str(exc)
+            return
+        truncated = getattr(exc, "truncated", False)
+        hint = " (--allow-truncated keeps the fields of the complete frames)" if truncated else ""
+        raise CGInputError(f"{exc}{hint}") from None
+
+
+def contact_frames(paths: Sequence[str], roles: Mapping[str, str] | None, allow_truncated: bool
+                   ) -> Iterator[ContactFrame]:
+    """The frames of the contact dumps in turn; a truncated one ends them when ``allow_truncated``."""
+    try:
+        for p in paths:
+            yield from read_contact_dump(p, roles=roles)
+    except DumpError as exc:
+        if getattr(exc, "truncated", False) and allow_truncated:
+            return
+        raise CGInputError(str(exc)) from None
 
 
 class Progress:

@@ -1,11 +1,11 @@
 """The choices of ``granflow cg`` (:mod:`postproc.cg`): the coordinate and kernel names and defaults,
-the frame selection, and the grid and kernel they make (moved out of :mod:`postproc.cg`, which re-exports
-them)."""
+the frame selection, the grid and kernel they make, and :class:`CGOptions`, all of them checked once."""
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from types import MappingProxyType
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -218,3 +218,120 @@ def make_kernel(kernel: str, grid: Grid, width: float | None, cutoff: float | No
         return Gaussian(width, cutoff if cutoff is not None else GAUSSIAN_CUTOFF * width, grid.nodes())
     return Lucy(width, grid.nodes())
 
+
+
+# --------------------------------------------------------------------------- options
+
+
+@dataclass(frozen=True, kw_only=True)
+class CGOptions:
+    """Every choice of a coarse-graining (:class:`postproc.cg.CoarseGraining`), checked once, on construction.
+
+    Raises :class:`~postproc.cg_output.CGInputError` for a choice refused whatever the dumps hold
+    (the messages of :func:`postproc.cg.coarse_grain`); the choices that depend on the dumps (the
+    axis, the grid, the width against the radii, the node budget) are checked against the first
+    selected frame when the frames are read. Lists given are held as tuples, ``frames`` as a
+    :class:`FrameSelection`, ``contact_roles`` as a read-only mapping.
+
+    Attributes
+    ----------
+    coords : str
+        One of :data:`COORDINATES` (:mod:`postproc.cg`).
+    spacing : float or sequence of float
+        Node spacing, one for all coordinates or one per coordinate.
+    axis : (float, float), optional
+        :math:`(x_0, y_0)` of the vertical axis of ``r`` and ``rz``; default the
+        centre of the box in :math:`x, y` (recorded in the meta and a warning).
+    kernel : str
+        One of :data:`KERNELS`.
+    width : float
+        Gaussian standard deviation, or Lucy's range; required for both, at least
+        the smallest particle radius.
+    cutoff : float, optional
+        Gaussian truncation radius (default :data:`GAUSSIAN_CUTOFF` widths).
+    ranges : (lo, hi) or sequence of (lo, hi), optional
+        Grid range per coordinate (:mod:`postproc.cg` for the default).
+    contact_roles : mapping, optional
+        Column name of each role (``id1 id2 dx dy dz fx fy fz`` ...), when the
+        header does not say (:func:`postproc.contacts.read_contact_dump`).
+    species : "auto" or sequence of int, optional
+        Per-type partial fields; ``"auto"`` takes the types of the first frame
+        holding atoms.
+    frames : str or FrameSelection, optional
+        ``START:STOP[:EVERY]`` in timesteps, STOP included.
+    density : float, optional
+        Particle material density, when the dump has no mass column.
+    volume : {"centre", "exact"}
+        Volume fraction from whole spheres at their centres, or (Heaviside bins
+        along one Cartesian axis) from each sphere's exact split over the bins.
+    n_blocks : int
+        Blocks of consecutive frames for the standard errors.
+    max_nodes : int
+        Node budget; a larger grid is refused before reading.
+    allow_truncated : bool
+        On a truncated dump, keep the fields of the complete frames (with a
+        warning) instead of refusing.
+    drop_nonfinite : bool
+        Leave out the atoms with a NaN or infinite position, velocity, spin,
+        mass or radius (counted in ``meta["frames"]["dropped_nonfinite"]``:
+        atom-frames, frames, the first step, per column) instead of refusing the
+        input. A mass or radius :math:`\\le 0` is refused either way.
+    method : {"auto", "compiled", "numpy"}
+        Deposit path (the compiled one is used for Gaussian ``rz`` by default).
+    """
+
+    coords: str = "z"
+    spacing: float | Sequence[float]
+    axis: tuple[float, float] | None = None
+    kernel: str = "gaussian"
+    width: float | None = None
+    cutoff: float | None = None
+    ranges: Sequence[tuple[float, float]] | None = None
+    contact_roles: Mapping[str, str] | None = None
+    species: str | Sequence[int] | None = None
+    frames: FrameSelection | str | None = None
+    density: float | None = None
+    volume: str = "centre"
+    n_blocks: int = DEFAULT_BLOCKS
+    max_nodes: int = DEFAULT_MAX_NODES
+    allow_truncated: bool = False
+    drop_nonfinite: bool = False
+    method: str = "auto"
+
+    def __post_init__(self):
+        coords, kernel, width, cutoff = self.coords, self.kernel, self.width, self.cutoff
+        if coords not in COORDINATES:
+            raise CGInputError(f"--coords {coords!r} is not one of {', '.join(COORDINATES)}")
+        if kernel not in KERNELS:
+            raise CGInputError(f"--kernel {kernel!r} is not one of {', '.join(KERNELS)}")
+        if kernel != "heaviside":
+            if width is None:
+                raise CGInputError(f"--width is required for the {kernel} kernel "
+                                   f"({'standard deviation' if kernel == 'gaussian' else 'range, where it falls to zero'})")
+            if not (math.isfinite(width) and width > 0):
+                raise CGInputError(f"--width {width} must be a positive finite length")
+            if cutoff is not None and kernel == "gaussian" and not (math.isfinite(cutoff) and cutoff > 0):
+                raise CGInputError(f"--cutoff {cutoff} must be a positive finite length")
+        if self.volume not in ("centre", "exact"):
+            raise CGInputError(f"volume {self.volume!r} is not 'centre' or 'exact'")
+        if self.volume == "exact" and not (kernel == "heaviside" and coords in ("x", "y", "z")):
+            raise CGInputError("--exact-volume needs --kernel heaviside and one Cartesian coordinate (x, y or z); "
+                               f"got --kernel {kernel} --coords {coords}")
+        if self.density is not None and not (math.isfinite(self.density) and self.density > 0):
+            raise CGInputError(f"--density {self.density} must be a positive finite number")
+        if int(self.n_blocks) < 2:
+            raise CGInputError(f"--blocks {self.n_blocks} must be at least 2 for standard errors")
+        frames = self.frames if isinstance(self.frames, FrameSelection) else FrameSelection.parse(self.frames)
+        object.__setattr__(self, "frames", frames)
+        for name in ("spacing", "ranges", "species"):  # held, not shared with the caller
+            if isinstance(getattr(self, name), list):
+                object.__setattr__(self, name, tuple(getattr(self, name)))
+        if self.contact_roles is not None:
+            object.__setattr__(self, "contact_roles", MappingProxyType(dict(self.contact_roles)))
+
+    @property
+    def kernel_cutoff(self) -> float | None:
+        """The cutoff as recorded in the meta: the one given, or the kernel's default (Lucy's: its width)."""
+        if self.kernel != "heaviside" and self.cutoff is None:
+            return GAUSSIAN_CUTOFF * self.width if self.kernel == "gaussian" else self.width
+        return self.cutoff

@@ -1,5 +1,6 @@
 """Characterisation of :func:`postproc.cg.coarse_grain` (issue 30, item 3): fields, meta and refusals
-on a seeded synthetic dump for a range of choices, bit for bit.
+on a seeded synthetic dump for a range of choices, bit for bit; and :class:`postproc.cg.CoarseGraining`
+(with its :class:`postproc.cg.CGOptions`) giving exactly what the function gives.
 
 ``GRANFLOW_CG_REFERENCE=/some/file.npz`` (outside git) writes that file when it does not exist and
 compares every case against it when it does, so that the outputs of one revision of the code can be
@@ -10,6 +11,7 @@ thread or several.
 """
 from __future__ import annotations
 
+import dataclasses
 import gzip
 import io
 import json
@@ -21,7 +23,7 @@ import numba
 import numpy as np
 import pytest
 
-from postproc.cg import CGInputError, coarse_grain
+from postproc.cg import CGInputError, CGOptions, CoarseGraining, FrameSelection, coarse_grain
 
 BOX = np.array([[0.0, 6.0], [0.0, 6.0], [0.0, 8.0]])
 COLUMNS = ["id", "type", "x", "y", "z", "vx", "vy", "vz", "omegax", "omegay", "omegaz", "radius", "mass"]
@@ -167,7 +169,7 @@ CASES = {
 
 #: name: (atom dump, contact dumps, choices) that coarse_grain refuses.
 REFUSALS = {
-    "no_dump": (None, (), dict(coords="z", spacing=1.0)),
+    "no_dump": (None, (), dict(coords="z", spacing=1.0, kernel="heaviside")),
     "missing_dump": ("absent.dump", (), dict(coords="z", spacing=1.0, width=-1)),
     "coords": ("atoms.dump", (), dict(coords="q", spacing=1.0)),
     "kernel": ("atoms.dump", (), dict(coords="z", kernel="box", spacing=1.0)),
@@ -199,6 +201,11 @@ REFUSALS = {
     "contacts_unmatched": ("atoms.dump", ("gap.local",), dict(coords="z", spacing=1.0, kernel="heaviside")),
     "method": ("atoms.dump", (), dict(coords="z", spacing=1.0, kernel="heaviside", method="fast")),
 }
+
+
+#: The refusals of choices alone, which CGOptions makes when made (the others come as the frames are read).
+AT_CONSTRUCTION = ("coords", "kernel", "no_width", "no_width_lucy", "width_negative", "width_nan", "cutoff_zero",
+                   "volume", "exact_gaussian", "exact_two_axes", "density", "blocks", "frames_order", "frames_text")
 
 
 @pytest.fixture
@@ -299,3 +306,91 @@ def test_cases_hold_their_invariants(inputs, one_thread):
     assert "sigmac_zz" in results["z_lucy_per_atom_stress_every"].fields.columns
     assert results["xy_lucy_species"].meta["species"] == [1, 2]
     assert any("axis not given" in w for w in results["r_lucy_default_axis"].warnings)
+
+
+def compare(found: dict[str, np.ndarray], expected: dict[str, np.ndarray]) -> dict[str, float]:
+    """The keys whose arrays differ in any bit, with their largest absolute difference."""
+    assert sorted(found) == sorted(expected)
+    return {key: max_abs_difference(found[key], expected[key])
+            for key in found if not bitwise_equal(found[key], expected[key])}
+
+
+def test_the_object_gives_what_the_function_gives(inputs, one_thread):
+    """Every case through CoarseGraining(CGOptions(...)).compute, twice on one object: bit for bit."""
+    folder = next(iter(inputs.values())).parent
+    for name, (dump, contacts, choices) in CASES.items():
+        choices = dict(choices)
+        progress = choices.pop("progress", None)
+        expected = arrays(run_case(inputs, name), folder)
+        cg = CoarseGraining(CGOptions(**choices))
+        for _ in range(2):
+            result = cg.compute([inputs[dump]], [inputs[c] for c in contacts],
+                                progress=None if progress is None else io.StringIO())
+            assert cg.result is result
+            assert not compare(arrays(result, folder), expected), name
+
+
+def test_one_object_computes_on_other_dumps_from_scratch(inputs, one_thread):
+    """A refusal or other dumps in between change neither the next result nor the ones returned before."""
+    folder = next(iter(inputs.values())).parent
+    cg = CoarseGraining(coords="xz", width=0.5, spacing=0.75, species="auto")
+    first = cg.compute([inputs["atoms.dump"]], [inputs["atoms.local"]])
+    kept = arrays(first, folder)
+    with pytest.raises(CGInputError, match="column vx = nan"):
+        cg.compute([inputs["nan.dump"]])
+    assert cg.result is None
+    other = cg.compute([inputs["stress.bin"]], progress=io.StringIO())
+    assert "sigmac_xx" in other.fields and other.meta["inputs"][0]["format"] == "binary"
+    again = cg.compute([inputs["atoms.dump"]], [inputs["atoms.local"]])
+    assert not compare(arrays(again, folder), kept)
+    assert not compare(arrays(first, folder), kept)
+    assert cg.result is again
+
+
+@pytest.mark.parametrize("name", [n for n in REFUSALS if n != "missing_dump"])
+def test_the_object_refuses_what_the_function_refuses(inputs, name):
+    """Choices alone are refused when CGOptions is made, the rest by compute, with the function's type and message."""
+    folder = next(iter(inputs.values())).parent
+    expected = refusal(inputs, name, folder)
+    dump, contacts, choices = REFUSALS[name]
+    if name in AT_CONSTRUCTION:
+        for make in (lambda: CGOptions(**choices), lambda: CoarseGraining(**choices)):
+            with pytest.raises(Exception) as caught:
+                make()
+            assert (type(caught.value).__name__, str(caught.value)) == expected
+        return
+    cg = CoarseGraining(CGOptions(**choices))
+    with pytest.raises(Exception) as caught:
+        cg.compute([] if dump is None else [inputs[dump]], [inputs[c] for c in contacts])
+    assert (type(caught.value).__name__, str(caught.value).replace(str(folder), "<tmp>")) == expected
+    assert cg.result is None
+
+
+def test_the_function_refuses_a_missing_file_before_the_choices(inputs):
+    """As before the object: the missing file is named even when a choice is refused too."""
+    folder = next(iter(inputs.values())).parent
+    assert refusal(inputs, "missing_dump", folder) == ("CGInputError", "dump file <tmp>/absent.dump does not exist")
+    with pytest.raises(CGInputError, match="--width -1 must be a positive finite length"):
+        CGOptions(**REFUSALS["missing_dump"][2])
+
+
+def test_options_are_held_frozen_and_normalised():
+    roles = {"id1": "c_ids[1]"}
+    options = CGOptions(coords="rz", spacing=[0.5, 1.0], ranges=[(0, 2), (0, 8)], species=[1, 2],
+                        frames="100:400:100", width=0.4, contact_roles=roles)
+    assert options.spacing == (0.5, 1.0) and options.ranges == ((0, 2), (0, 8)) and options.species == (1, 2)
+    assert options.frames == FrameSelection(100, 400, 100)
+    assert CGOptions(spacing=1.0, kernel="heaviside").frames == FrameSelection()
+    roles["id2"] = "c_ids[2]"
+    assert dict(options.contact_roles) == {"id1": "c_ids[1]"}
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        options.width = 0.1
+    with pytest.raises(TypeError):
+        options.contact_roles["id2"] = "c_ids[2]"
+    assert options.kernel_cutoff == pytest.approx(1.2)
+    assert CGOptions(spacing=1, kernel="lucy", width=0.5).kernel_cutoff == 0.5
+    assert CGOptions(spacing=1, kernel="heaviside").kernel_cutoff is None
+    with pytest.raises(TypeError, match="not both"):
+        CoarseGraining(options, coords="z")
+    with pytest.raises(TypeError):
+        CGOptions("z", spacing=1.0)  # keyword only

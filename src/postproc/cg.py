@@ -8,6 +8,12 @@ fields on a regular grid with standard errors over blocks of frames;
 :func:`write_result` writes them as ``fields.csv``, ``meta.json`` and
 ``fields.vtr`` (a VTK rectilinear grid that ParaView opens).
 
+The same as an object, in the manner of freud's computes and MDAnalysis'
+analyses: :class:`CoarseGraining` holds the choices (a :class:`CGOptions`,
+checked once, when made) and coarse-grains any dumps on
+:meth:`CoarseGraining.compute`, frame by frame; :func:`coarse_grain` makes one
+and calls it.
+
 Nothing here needs a granflow case directory: the inputs are the dump files and
 the choices below, and every choice is written to ``meta.json``.
 
@@ -56,32 +62,36 @@ Example
                           contacts=["dump.contacts"], frames="100000:200000")
     write_result(result, "cg_out")
     print(result.fields[["r", "z", "rho", "v_z"]])
+
+    from postproc.cg import CGOptions, CoarseGraining
+
+    cg = CoarseGraining(CGOptions(coords="rz", axis=(0.05, 0.05), width=0.002, spacing=0.002))
+    early, late = cg.compute(["dump.hopper.bin"], progress=sys.stderr), cg.compute(["dump.late.bin"])
 """
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import time
 import warnings as _warnings
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Iterator, Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 import pandas as pd
 
-from .contacts import ContactFrame, read_contact_dump
-from .coordinates import CartesianCoordinates, RCoordinates, RZCoordinates
-from .dump import DumpError, dump_format, missing_particle_columns, read_dump, read_dumps
+from .cg_frames import (FrameTally, Progress, contact_frames, count_selected, first_frames, input_paths, paired,
+                        particle_frames, possible_radii, sha256)
+# the choices and the writers, re-exported: postproc.cg is the API (and describe_dropped, for the command)
+from .cg_frames import describe_dropped  # noqa: F401
+from .cg_options import (COORDINATES, DEFAULT_BLOCKS, DEFAULT_MAX_NODES, GAUSSIAN_CUTOFF, KERNELS,  # noqa: F401
+                         CGOptions, FrameSelection, Grid, make_coordinates, make_grid, make_kernel, parse_numbers,
+                         parse_ranges)
+from .cg_output import OUTPUT_NAMES, CGInputError, check_outputs, write_result  # noqa: F401
+from .contacts import ContactFrame
+from .dump import DumpError, dump_format, missing_particle_columns
 from .fields import FieldAccumulator, SparseGridWarning
-from .cg_output import (  # noqa: F401 (the writers, re-exported: postproc.cg is the API)
-    OUTPUT_NAMES,
-    CGInputError,
-    check_outputs,
-    write_result,
-)
-from .frame import DumpFrame, ImpossibleValues, ParticleFrame, impossible_values
-from .kernels import Gaussian, HeavisideBins, Lucy
+from .frame import ParticleFrame
 
 __all__ = [
     "COORDINATES",
@@ -89,224 +99,21 @@ __all__ = [
     "CGInputError",
     "FrameSelection",
     "Grid",
+    "CGOptions",
     "CGResult",
+    "CoarseGraining",
     "coarse_grain",
     "write_result",
     "check_outputs",
     "OUTPUT_NAMES",
 ]
 
-#: Coordinate choices.
-COORDINATES = ("x", "y", "z", "xy", "xz", "yz", "xyz", "r", "rz")
-#: Kernel choices.
-KERNELS = ("gaussian", "lucy", "heaviside")
-#: Default truncation of the Gaussian, in standard deviations.
-GAUSSIAN_CUTOFF = 3.0
-#: Default node budget (the accumulator keeps ~130 copies of the primitive
-#: densities for block errors: 250 000 nodes x 26 primitives is ~7 GB).
-DEFAULT_MAX_NODES = 100_000
-#: Blocks of consecutive frames for the standard errors.
-DEFAULT_BLOCKS = 8
 #: A grid holding fewer particle-frames than this fraction of those read is
 #: reported as (mostly) empty.
 SPARSE_FRACTION = 0.01
 
 
 _FIELDS = ("n", "phi", "rho", "u", "Omega", "T", "sigmac", "sigmak", "sigma", "pk", "pc", "p")
-
-
-
-
-# --------------------------------------------------------------------------- frames
-
-
-@dataclass(frozen=True)
-class FrameSelection:
-    """Frames by timestep: ``start <= step <= stop`` and every ``every``-th step from ``start``.
-
-    Parsed from ``START:STOP[:EVERY]`` (:meth:`parse`); an empty part is open.
-    """
-
-    start: int | None = None
-    stop: int | None = None
-    every: int | None = None
-
-    @classmethod
-    def parse(cls, text: str | None) -> "FrameSelection":
-        if text is None or text == "":
-            return cls()
-        parts = str(text).split(":")
-        if len(parts) not in (2, 3):
-            raise CGInputError(f"--frames {text!r} is not START:STOP[:EVERY] (timesteps, STOP included)")
-        values = []
-        for name, part in zip(("START", "STOP", "EVERY"), parts):
-            if part.strip() == "":
-                values.append(None)
-                continue
-            try:
-                value = int(part)
-            except ValueError:
-                raise CGInputError(f"--frames {text!r}: {name} {part!r} is not an integer timestep") from None
-            if value < 0:
-                raise CGInputError(f"--frames {text!r}: {name} {value} must be >= 0")
-            values.append(value)
-        values += [None] * (3 - len(values))
-        start, stop, every = values
-        if start is not None and stop is not None and stop < start:
-            raise CGInputError(f"--frames {text!r}: STOP {stop} is before START {start}")
-        if every is not None and every < 1:
-            raise CGInputError(f"--frames {text!r}: EVERY must be at least 1, got {every}")
-        return cls(start, stop, every)
-
-    def __call__(self, timestep: int) -> bool:
-        if self.start is not None and timestep < self.start:
-            return False
-        if self.stop is not None and timestep > self.stop:
-            return False
-        if self.every is not None and (timestep - (self.start or 0)) % self.every:
-            return False
-        return True
-
-    def describe(self) -> str:
-        if self == FrameSelection():
-            return "all frames"
-        lo = "first" if self.start is None else f"step {self.start}"
-        hi = "last" if self.stop is None else f"step {self.stop}"
-        every = "" if self.every is None else f", every {self.every} steps"
-        return f"{lo} to {hi} (included){every}"
-
-
-# --------------------------------------------------------------------------- grid
-
-
-@dataclass(frozen=True)
-class Grid:
-    """A regular grid of cells: per coordinate a range ``(lo, hi)`` cut into ``count`` cells.
-
-    Nodes are the cell centres; Heaviside bins are the cells themselves.
-    """
-
-    names: tuple[str, ...]
-    ranges: tuple[tuple[float, float], ...]
-    counts: tuple[int, ...]
-
-    @property
-    def spacing(self) -> tuple[float, ...]:
-        return tuple((hi - lo) / n for (lo, hi), n in zip(self.ranges, self.counts))
-
-    @property
-    def n_nodes(self) -> int:
-        return int(np.prod(self.counts))
-
-    @property
-    def shape(self) -> tuple[int, ...]:
-        return tuple(self.counts)
-
-    def edges(self) -> tuple[np.ndarray, ...]:
-        return tuple(np.linspace(lo, hi, n + 1) for (lo, hi), n in zip(self.ranges, self.counts))
-
-    def nodes(self) -> tuple[np.ndarray, ...]:
-        return tuple(0.5 * (e[1:] + e[:-1]) for e in self.edges())
-
-    def contains(self, points: np.ndarray) -> np.ndarray:
-        """Which points (N, d) lie inside the grid's ranges."""
-        inside = np.ones(len(points), dtype=bool)
-        for k, (lo, hi) in enumerate(self.ranges):
-            inside &= (points[:, k] >= lo) & (points[:, k] <= hi)
-        return inside
-
-    def describe(self) -> str:
-        return ", ".join(f"{n} in [{lo:g}, {hi:g}] ({c} nodes)" for n, (lo, hi), c in
-                         zip(self.names, self.ranges, self.counts))
-
-
-def _per_coordinate(values, names: Sequence[str], option: str) -> list:
-    values = list(values) if isinstance(values, (list, tuple)) else [values]
-    if len(values) == 1:
-        return values * len(names)
-    if len(values) != len(names):
-        raise CGInputError(f"{option} gives {len(values)} values but the coordinates {''.join(names)!r} "
-                           f"have {len(names)}: give one for all or one per coordinate, in the order "
-                           f"{', '.join(names)}")
-    return values
-
-
-def parse_numbers(text: str, option: str) -> list[float]:
-    """``"0.1,0.2"`` -> [0.1, 0.2], refusing anything that is not a finite number."""
-    out = []
-    for part in str(text).split(","):
-        try:
-            value = float(part)
-        except ValueError:
-            raise CGInputError(f"{option} {text!r}: {part!r} is not a number") from None
-        if not math.isfinite(value):
-            raise CGInputError(f"{option} {text!r}: {part!r} is not finite")
-        out.append(value)
-    return out
-
-
-def parse_ranges(text: str | None) -> list[tuple[float, float]] | None:
-    """``"LO:HI[,LO:HI,...]"`` -> [(lo, hi), ...]; None for None."""
-    if text is None:
-        return None
-    out = []
-    for part in str(text).split(","):
-        bounds = part.split(":")
-        if len(bounds) != 2:
-            raise CGInputError(f"--range {text!r}: {part!r} is not LO:HI")
-        lo, hi = (parse_numbers(b, "--range")[0] for b in bounds)
-        out.append((lo, hi))
-    return out
-
-
-def _coordinates(coords: str, axis):
-    if coords in ("r", "rz"):
-        cls = RCoordinates if coords == "r" else RZCoordinates
-        return cls(axis)
-    return CartesianCoordinates(coords)
-
-
-def _default_range(name: str, box: np.ndarray, axis) -> tuple[float, float]:
-    if name == "r":
-        x0, y0 = axis
-        return 0.0, float(min(x0 - box[0, 0], box[0, 1] - x0, y0 - box[1, 0], box[1, 1] - y0))
-    k = "xyz".index(name)
-    return float(box[k, 0]), float(box[k, 1])
-
-
-def make_grid(names: Sequence[str], spacing, ranges, box: np.ndarray, axis=None,
-              kernel: str = "gaussian") -> tuple[Grid, list[str]]:
-    """The grid of ``spacing`` over ``ranges`` (default from the box); notes on adjusted spacings."""
-    spacing = _per_coordinate(spacing, names, "--spacing")
-    ranges = _per_coordinate(ranges, names, "--range") if ranges is not None else [None] * len(names)
-    out_ranges, counts, notes = [], [], []
-    for name, h, rng in zip(names, spacing, ranges):
-        if not (h > 0 and math.isfinite(h)):
-            raise CGInputError(f"--spacing {h} for {name} must be a positive finite length")
-        lo, hi = rng if rng is not None else _default_range(name, box, axis)
-        if not hi > lo:
-            source = "--range" if rng is not None else f"the box (from the first frame) gives {name} range"
-            raise CGInputError(f"{source} {lo:g}:{hi:g} for {name} is empty: HI must exceed LO")
-        if name == "r" and lo < 0:
-            raise CGInputError(f"--range {lo:g}:{hi:g} for r starts below 0; the radius is >= 0")
-        n = max(1, int(round((hi - lo) / h)))
-        if abs(n * h - (hi - lo)) > 1e-9 * (hi - lo):
-            notes.append(f"spacing along {name} adjusted from {h:g} to {(hi - lo) / n:g} "
-                         f"for a whole number of cells in [{lo:g}, {hi:g}]")
-        if kernel != "heaviside" and n < 2:
-            raise CGInputError(f"--spacing {h:g} gives a single node along {name} in [{lo:g}, {hi:g}]; "
-                               f"a smooth kernel needs at least 2 nodes per coordinate")
-        out_ranges.append((float(lo), float(hi)))
-        counts.append(n)
-    return Grid(tuple(names), tuple(out_ranges), tuple(counts)), notes
-
-
-def make_kernel(kernel: str, grid: Grid, width: float | None, cutoff: float | None):
-    if kernel == "heaviside":
-        return HeavisideBins(grid.edges())
-    if kernel == "gaussian":
-        return Gaussian(width, cutoff if cutoff is not None else GAUSSIAN_CUTOFF * width, grid.nodes())
-    return Lucy(width, grid.nodes())
 
 
 # --------------------------------------------------------------------------- result
@@ -331,155 +138,219 @@ class CGResult:
     warnings: list[str] = field(default_factory=list)
 
 
-class _Progress:
-    """Frames done, on one stderr line (a bar when the total is known), at most every ``interval`` s.
+class CoarseGraining:
+    """A coarse-graining: its choices held (:class:`CGOptions`), dumps taken by :meth:`compute`.
 
-    The first line comes one interval after the start (a refusal in the first frames is then the
-    only line); :meth:`abort` ends an open terminal line before a refusal is printed.
+    The shape of freud's computes and of MDAnalysis' ``AnalysisBase``: the choices are
+    given, and checked, once (``CoarseGraining(CGOptions(...))`` or
+    ``CoarseGraining(coords=..., spacing=..., ...)``); :meth:`compute` then reads
+    the frames through :meth:`_prepare` (the first selected frames: columns, box,
+    axis, grid, kernel, the accumulator), :meth:`_single_frame` (one frame and its
+    contacts) and :meth:`_conclude` (the fields, the warnings, the meta), and
+    returns the :class:`CGResult`, also kept as :attr:`result` (None until a
+    compute succeeds). One object may compute any number of times, on any dumps.
     """
 
-    def __init__(self, total: int | None, stream=None, interval: float = 0.5):
-        self.total = total
-        self.stream = stream
-        self.interval = interval
-        self.tty = bool(stream is not None and getattr(stream, "isatty", lambda: False)())
-        self.start = time.perf_counter()
-        self.last = self.start
-        self.printed = False
-        self.open = False
+    def __init__(self, options: CGOptions | None = None, /, **choices):
+        if options is not None and choices:
+            raise TypeError("give CoarseGraining either a CGOptions or the choices, not both")
+        self.options = options if options is not None else CGOptions(**choices)
+        self.result: CGResult | None = None
 
-    def abort(self) -> None:
-        if self.open:
-            self.stream.write("\n")
-            self.stream.flush()
-            self.open = False
+    def compute(self, dumps: Sequence[str | os.PathLike], contacts: Sequence[str | os.PathLike] = (), *,
+                progress=None) -> CGResult:
+        """Time-averaged coarse-grained fields of the ``dump custom`` files ``dumps`` (in time order).
 
-    def update(self, frames: int, particles: int, step: int, final: bool = False) -> None:
-        if self.stream is None:
-            return
-        now = time.perf_counter()
-        if not final and now - self.last < (self.interval if self.tty else 30.0):
-            return
-        self.last = now
-        rate = particles / max(now - self.start, 1e-9)
-        if self.total:
-            done = min(frames / self.total, 1.0)
-            bar = "#" * int(30 * done) + "-" * (30 - int(30 * done))
-            text = f"cg [{bar}] {frames}/{self.total} frames"
-        else:
-            text = f"cg {frames} frames"
-        text += f", step {step}, {rate / 1e6:.2f} M particle-frames/s"
-        if self.tty:
-            self.stream.write("\r" + text + ("\n" if final else ""))
-            self.open = not final
-        else:
-            self.stream.write(text + "\n")
-        self.stream.flush()
-        self.printed = True
+        ``contacts``: ``dump local`` files of ``compute pair/local`` with
+        ``property/local`` ids at the same steps as the atom frames (they give
+        the contact stress). ``progress``: a stream for a progress line (e.g.
+        ``sys.stderr``), or None. :func:`coarse_grain` says what the dumps need,
+        what is refused and when.
+        """
+        start = time.perf_counter()
+        self.result = None  # a refused compute leaves none
+        self._prepare(*input_paths(dumps, contacts))
+        total = count_selected(self._paths, self.options.frames) if (
+            progress is not None and all(f == "binary" for f in self._formats)) else None
+        bar = Progress(total, progress)
+        tally = self._tally
+        try:
+            for frame, contact in self._frames():
+                self._single_frame(frame, contact)
+                bar.update(tally.n_frames, tally.n_particles, frame.timestep)
+        except CGInputError:
+            bar.abort()
+            raise
+        bar.update(tally.n_frames, tally.n_particles, tally.steps[-1] if tally.steps else 0, final=True)
+        self.result = self._conclude(start)
+        return self.result
 
+    def _prepare(self, paths: list[str], contact_paths: list[str]) -> None:
+        """Check the choices against the first selected frames; set up the grid, the kernel and the accumulator."""
+        o = self.options
+        self._paths, self._contact_paths = paths, contact_paths
+        try:
+            self._formats = [dump_format(p) for p in paths]
+            self._contact_formats = [dump_format(p) for p in contact_paths]
+            first, populated = first_frames(paths, o.frames)
+        except DumpError as exc:
+            raise CGInputError(str(exc)) from None
+        names = list(first.columns)
+        lacking = missing_particle_columns(names, o.density)
+        if lacking:
+            raise CGInputError(f"{paths[0]} lacks {'; '.join(lacking)}; the file has the columns {' '.join(names)}")
+        if contact_paths and "id" not in first.columns:
+            raise CGInputError(f"--contacts needs the atom ids: {paths[0]} has no 'id' column "
+                               f"(columns: {' '.join(names)})")
+        if o.species is not None and "type" not in first.columns:
+            raise CGInputError(f"--species needs the atom types: {paths[0]} has no 'type' column "
+                               f"(columns: {' '.join(names)})")
+        box = np.asarray(first.box, dtype=float)
+        self._units = first.units
+        self._warnings: list[str] = []
+        self._axis, self._axis_source = self._resolve_axis(box, first.timestep)
+        self._coordinates = make_coordinates(o.coords, self._axis)
+        self._grid, notes = make_grid(self._coordinates.names, o.spacing, o.ranges, box, self._axis, o.kernel)
+        self._warnings += notes
+        if self._grid.n_nodes > int(o.max_nodes):
+            raise CGInputError(f"the grid has {self._grid.n_nodes} nodes ({self._grid.describe()}), over the budget "
+                               f"of {int(o.max_nodes)}: use a coarser --spacing, a smaller --range or raise "
+                               f"--max-nodes (memory grows as nodes x fields x {16 * int(o.n_blocks)} block sums)")
+        radii = possible_radii(populated) if populated is not None else None
+        if o.kernel != "heaviside" and radii is not None and radii.size and o.width < radii.min():
+            raise CGInputError(
+                f"--width {o.width:g} is below the smallest particle radius {radii.min():g} (frame at step "
+                f"{populated.timestep}): a kernel narrower than a particle resolves single particles, not a "
+                f"continuum; use a width of a radius or more (typically one to two diameters)")
+        self._species = o.species
+        if o.species == "auto":
+            if populated is None:
+                raise CGInputError("--species without ids: the first frames hold no atoms to take the types from; "
+                                   "give them, e.g. --species 1,2")
+            self._species = sorted({int(t) for t in np.rint(populated.columns["type"])})
+        try:
+            kernel = make_kernel(o.kernel, self._grid, o.width, o.cutoff)
+        except ValueError as exc:
+            raise CGInputError(str(exc)) from None
+        self._accumulator = FieldAccumulator(kernel, self._coordinates, fields=_FIELDS, n_blocks=o.n_blocks,
+                                             species=self._species, method=o.method, volume=o.volume)
+        self._accumulator.prepare()
+        self._tally = FrameTally()
 
-def _sha256(path: str | os.PathLike) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 22), b""):
-            h.update(chunk)
-    return h.hexdigest()
+    def _resolve_axis(self, box: np.ndarray, timestep: int) -> tuple[tuple[float, float] | None, str | None]:
+        """The axis of ``r`` and ``rz`` (given, inside the box, or the box centre, with a warning) and its source."""
+        coords, axis = self.options.coords, self.options.axis
+        if coords not in ("r", "rz"):
+            if axis is not None:
+                raise CGInputError(f"--axis applies to --coords r and rz, not {coords}")
+            return None, None
+        if axis is None:
+            axis = (0.5 * (box[0, 0] + box[0, 1]), 0.5 * (box[1, 0] + box[1, 1]))
+            self._warnings.append(f"axis not given: using the centre of the box in x, y, ({axis[0]:g}, {axis[1]:g})")
+            return axis, "box centre (no --axis given)"
+        axis = (float(axis[0]), float(axis[1]))
+        if not all(math.isfinite(a) for a in axis):
+            raise CGInputError(f"--axis {axis} must be two finite numbers")
+        if not (box[0, 0] <= axis[0] <= box[0, 1] and box[1, 0] <= axis[1] <= box[1, 1]):
+            raise CGInputError(
+                f"--axis {axis[0]:g},{axis[1]:g} lies outside the box (x in [{box[0, 0]:g}, {box[0, 1]:g}], "
+                f"y in [{box[1, 0]:g}, {box[1, 1]:g}] at step {timestep})")
+        return axis, "given"
 
+    def _frames(self) -> Iterator[tuple[ParticleFrame, ContactFrame | None]]:
+        """The selected atom frames, each with its contact frame (None without contact dumps)."""
+        o, tally = self.options, self._tally
+        particles = particle_frames(self._paths, o.frames, tally, density=o.density,
+                                    drop_nonfinite=o.drop_nonfinite, allow_truncated=o.allow_truncated)
+        contacts = (contact_frames(self._contact_paths, o.contact_roles, o.allow_truncated)
+                    if self._contact_paths else None)
+        return paired(particles, contacts, o.frames, lambda: tally.truncated is None)
 
-def _first_frames(paths: Sequence[str], select: Callable[[int], bool], limit: int = 64) -> tuple[DumpFrame, DumpFrame | None]:
-    """The first selected frame and the first selected one holding atoms (None if not within ``limit``)."""
-    first = None
-    for k, frame in enumerate(read_dumps(paths, select=select)):
-        first = first or frame
-        if frame.natoms > 0:
-            return first, frame
-        if k >= limit:
-            break
-    if first is None:
-        raise CGInputError(f"no frame of {', '.join(paths)} is selected by --frames")
-    return first, None
+    def _single_frame(self, frame: ParticleFrame, contact: ContactFrame | None) -> None:
+        """Deposit one frame (and its contacts) and count it."""
+        if contact is not None and contact.branch is None:
+            contact = contact.with_branch(frame)
+        try:
+            self._accumulator.accumulate(frame, contact)
+        except (ValueError, KeyError) as exc:
+            raise CGInputError(f"frame at step {frame.timestep}: {exc}") from None
+        n_inside = int(self._grid.contains(self._coordinates.points(frame)).sum()) if len(frame.mass) else 0
+        self._tally.add(frame, n_inside)
 
+    def _conclude(self, start: float) -> CGResult:
+        """The fields of the frames read, the warnings on what they cover, the meta; ``start`` for the timing."""
+        tally, grid = self._tally, self._grid
+        if tally.n_frames == 0:
+            raise CGInputError(f"no complete frame selected ({self.options.frames.describe()}) in "
+                               f"{', '.join(self._paths)}")
+        with _warnings.catch_warnings():  # reported below, with the centre counts
+            _warnings.simplefilter("ignore", SparseGridWarning)
+            table = self._accumulator.conclude()
+        fields_table = _tidy(table, self._coordinates.names)
+        warnings = self._warnings
+        if tally.truncated:
+            warnings.append(f"truncated input: {tally.truncated}; fields from the {tally.n_frames} complete "
+                            f"frames before it")
+        if tally.n_particles == 0:
+            warnings.append(f"the {tally.n_frames} selected frames hold no particles: every field is empty")
+        elif tally.n_inside < SPARSE_FRACTION * tally.n_particles:
+            warnings.append(
+                f"the grid is (nearly) empty: {tally.n_inside} of {tally.n_particles} particle-frames "
+                f"({100.0 * tally.n_inside / tally.n_particles:.2g} %) have their centre inside {grid.describe()}; "
+                + ("check --axis and --range" if self.options.coords in ("r", "rz") else "check --range"))
+        empty_nodes = int((fields_table["n"] <= 0).sum()) if "n" in fields_table else 0
+        if tally.n_particles and empty_nodes > 0.5 * grid.n_nodes:
+            warnings.append(f"{empty_nodes} of {grid.n_nodes} nodes never held a particle's kernel weight")
+        meta = self._meta(fields_table, time.perf_counter() - start)
+        return CGResult(fields=fields_table, meta=meta, grid=grid, warnings=warnings)
 
-def _radii(frame: DumpFrame) -> np.ndarray | None:
-    """The frame's possible radii (finite and > 0: the others are refused or dropped as the frames are read)."""
-    c = frame.columns
-    if "radius" in c:
-        radii = np.asarray(c["radius"], float)
-    elif "diameter" in c:
-        radii = 0.5 * np.asarray(c["diameter"], float)
-    else:
-        return None
-    return radii[np.isfinite(radii) & (radii > 0)]
-
-
-def _atom(frame: DumpFrame, row: int) -> str:
-    """The atom in row ``row`` of the frame, by its id when the dump has one."""
-    if "id" not in frame.columns:
-        return f"atom {row + 1} of the frame (the dump has no id column)"
-    atom_id = float(frame.columns["id"][row])
-    if not math.isfinite(atom_id):
-        return f"atom {row + 1} of the frame (id {atom_id:g})"
-    return f"atom id {int(round(atom_id))}"
-
-
-def _impossible_message(path: str, frame: DumpFrame, columns: dict[str, np.ndarray], allowed: str) -> str:
-    row, column, count = ImpossibleValues.first(columns)
-    value = float(frame.columns[column][row])
-    others = f" ({count} atoms of this frame have such values)" if count > 1 else ""
-    return (f"{path}: frame at step {frame.timestep}, {_atom(frame, row)}: column {column} = {value:g} "
-            f"is not allowed: allowed {allowed}{others}")
-
-
-def _possible_atoms(path: str, frame: DumpFrame, drop_nonfinite: bool) -> tuple[DumpFrame, dict[str, int], int]:
-    """The frame, refused if an atom has a value no particle can have (:func:`~postproc.frame.impossible_values`).
-
-    A mass, radius or diameter :math:`\\le 0` is always refused; a NaN or an
-    infinity (position, velocity, spin, mass, radius) is refused unless
-    ``drop_nonfinite``, when those atoms are left out. Returns the frame (without
-    them), the dropped atoms per offending column and the number of atoms dropped.
-    """
-    found = impossible_values(frame)
-    if found is None:
-        return frame, {}, 0
-    if found.nonpositive:
-        raise CGInputError(_impossible_message(path, frame, found.nonpositive, "a positive finite number"))
-    if not drop_nonfinite:
-        raise CGInputError(_impossible_message(path, frame, found.nonfinite, "a finite number")
-                           + "; --drop-nonfinite leaves such atoms out and counts them")
-    bad = found.nonfinite_rows
-    keep = ~bad
-    kept = DumpFrame(timestep=frame.timestep, box=frame.box, boundary=frame.boundary,
-                     columns={k: v[keep] for k, v in frame.columns.items()}, time=frame.time, units=frame.units)
-    return kept, {k: int(np.count_nonzero(v)) for k, v in found.nonfinite.items()}, int(np.count_nonzero(bad))
-
-
-def _paired(frames: Iterable[ParticleFrame], contacts: Iterator[ContactFrame] | None, select,
-            strict_end: Callable[[], bool]):
-    """Yield (frame, contacts) with contacts matched by timestep; refuse unmatched ones."""
-    if contacts is None:
-        for frame in frames:
-            yield frame, None
-        return
-    def next_contact() -> ContactFrame | None:
-        for c in contacts:
-            if select(c.timestep):
-                return c
-        return None
-
-    pending = next_contact()
-    for frame in frames:
-        if pending is not None and pending.timestep < frame.timestep:
-            raise CGInputError(f"contact frame at step {pending.timestep} has no atom frame at that step "
-                               f"(the next atom frame is at step {frame.timestep}); contacts and atoms "
-                               f"must be dumped at the same steps")
-        if pending is None or pending.timestep != frame.timestep:
-            raise CGInputError(f"atom frame at step {frame.timestep} has no contact frame at that step"
-                               + ("" if pending is None else f" (the next contact frame is at step {pending.timestep})"))
-        yield frame, pending
-        pending = next_contact()
-    if pending is not None and strict_end():
-        raise CGInputError(f"contact frame at step {pending.timestep} has no atom frame at that step "
-                           f"(the atom frames end before it)")
+    def _meta(self, fields_table: pd.DataFrame, elapsed: float) -> dict:
+        """Inputs, frames, choices, units and warnings of the fields (``meta.json``)."""
+        o, tally, grid, coordinates = self.options, self._tally, self._grid, self._coordinates
+        inputs = [{"path": p, "role": "atoms", "format": f, "bytes": os.path.getsize(p), "sha256": sha256(p)}
+                  for p, f in zip(self._paths, self._formats)]
+        inputs += [{"path": p, "role": "contacts", "format": f, "bytes": os.path.getsize(p), "sha256": sha256(p)}
+                   for p, f in zip(self._contact_paths, self._contact_formats)]
+        timed = tally.n_timed == tally.n_frames
+        return {
+            "tool": "granflow cg (postproc.cg.coarse_grain)",
+            "inputs": inputs,
+            "frames": {
+                "selection": o.frames.describe(),
+                "count": tally.n_frames,
+                "first_step": tally.steps[0],
+                "last_step": tally.steps[-1],
+                "step_intervals": sorted(tally.intervals),
+                "first_time": tally.times[0] if timed else None,
+                "last_time": tally.times[-1] if timed else None,
+                "truncated": tally.truncated,
+                "particle_frames": tally.n_particles,
+                "particle_frames_in_grid": tally.n_inside,
+                "dropped_nonfinite": tally.dropped if o.drop_nonfinite else None,
+            },
+            "coordinates": {"choice": o.coords, "names": list(coordinates.names),
+                            "components": list(getattr(coordinates, "components", ("x", "y", "z"))),
+                            "axis": None if self._axis is None else list(self._axis),
+                            "axis_source": self._axis_source},
+            "kernel": {"name": o.kernel, "width": o.width, "cutoff": o.kernel_cutoff,
+                       "width_means": {"gaussian": "standard deviation", "lucy": "range (zero beyond)",
+                                       "heaviside": "unused: bins are the grid cells"}[o.kernel]},
+            "grid": {"names": list(grid.names), "ranges": [list(r) for r in grid.ranges],
+                     "spacing": list(grid.spacing), "nodes": list(grid.counts), "n_nodes": grid.n_nodes},
+            "volume_fraction": o.volume,
+            "density": o.density,
+            "species": None if self._species is None else list(self._species),
+            "fields": [c for c in fields_table.columns if not c.endswith("_se")],
+            "omitted_fields": self._accumulator.omitted_fields,
+            "standard_errors": (f"std over {min(o.n_blocks, tally.n_frames)} blocks of consecutive frames "
+                                "/ sqrt(blocks)"),
+            "stress_sign": "compressive positive",
+            "units": (f"as the dump's: LAMMPS units {self._units}" if self._units else
+                      "as the dump's (the dump does not name its units; dump_modify units yes would)"),
+            "warnings": self._warnings,
+            "elapsed_s": round(elapsed, 3),
+            "particle_frames_per_s": round(tally.n_particles / elapsed, 1) if elapsed > 0 else None,
+        }
 
 
 def coarse_grain(
@@ -507,9 +378,10 @@ def coarse_grain(
 ) -> CGResult:
     """Time-averaged coarse-grained fields of LAMMPS dumps on a regular grid.
 
-    Every choice is checked, against the first selected frame, before the frames
-    are read; the frames are then streamed (memory does not grow with their
-    number).
+    ``CoarseGraining(CGOptions(coords=coords, spacing=spacing, ...)).compute(dumps,
+    contacts, progress=progress)``, with the files checked first. Every choice is
+    checked, against the first selected frame, before the frames are read; the
+    frames are then streamed (memory does not grow with their number).
 
     Parameters
     ----------
@@ -519,54 +391,17 @@ def coarse_grain(
         ``xs ys zs``), ``vx vy vz``, ``radius`` or ``diameter``, and ``mass``
         unless ``density`` is given. ``id`` is needed with contacts, ``type``
         with species, ``omegax omegay omegaz`` for spin and temperature.
-    coords : str
-        One of :data:`COORDINATES` (module docstring).
-    spacing : float or sequence of float
-        Node spacing, one for all coordinates or one per coordinate.
-    axis : (float, float), optional
-        :math:`(x_0, y_0)` of the vertical axis of ``r`` and ``rz``; default the
-        centre of the box in :math:`x, y` (recorded in the meta and a warning).
-    kernel : str
-        One of :data:`KERNELS`.
-    width : float
-        Gaussian standard deviation, or Lucy's range; required for both, at least
-        the smallest particle radius.
-    cutoff : float, optional
-        Gaussian truncation radius (default :data:`GAUSSIAN_CUTOFF` widths).
-    ranges : (lo, hi) or sequence of (lo, hi), optional
-        Grid range per coordinate (module docstring for the default).
     contacts : sequence of path
         ``dump local`` files of ``compute pair/local`` with ``property/local``
         ids, at the same steps as the atom frames; they give the contact stress.
-    contact_roles : dict, optional
-        Column name of each role (``id1 id2 dx dy dz fx fy fz`` ...), when the
-        header does not say (:func:`postproc.contacts.read_contact_dump`).
-    species : "auto" or sequence of int, optional
-        Per-type partial fields; ``"auto"`` takes the types of the first frame
-        holding atoms.
-    frames : str or FrameSelection, optional
-        ``START:STOP[:EVERY]`` in timesteps, STOP included.
-    density : float, optional
-        Particle material density, when the dump has no mass column.
-    volume : {"centre", "exact"}
-        Volume fraction from whole spheres at their centres, or (Heaviside bins
-        along one Cartesian axis) from each sphere's exact split over the bins.
-    n_blocks : int
-        Blocks of consecutive frames for the standard errors.
-    max_nodes : int
-        Node budget; a larger grid is refused before reading.
-    allow_truncated : bool
-        On a truncated dump, keep the fields of the complete frames (with a
-        warning) instead of refusing.
-    drop_nonfinite : bool
-        Leave out the atoms with a NaN or infinite position, velocity, spin,
-        mass or radius (counted in ``meta["frames"]["dropped_nonfinite"]``:
-        atom-frames, frames, the first step, per column) instead of refusing the
-        input. A mass or radius :math:`\\le 0` is refused either way.
     progress : file-like, optional
         Stream for a progress line (e.g. ``sys.stderr``); None is silent.
-    method : {"auto", "compiled", "numpy"}
-        Deposit path (the compiled one is used for Gaussian ``rz`` by default).
+
+    Other Parameters
+    ----------------
+    coords, spacing, axis, kernel, width, cutoff, ranges, contact_roles, species, frames, density, volume,
+    n_blocks, max_nodes, allow_truncated, drop_nonfinite, method
+        The choices, as :class:`~postproc.cg_options.CGOptions` documents them.
 
     Returns
     -------
@@ -575,258 +410,18 @@ def coarse_grain(
     Raises
     ------
     CGInputError
-        For any refused choice or input, before reading when it can be known then;
+        For any refused choice or input, before reading when it can be known then
+        (a missing file first, then the choices, then against the first frames);
         as the frames are read, an atom with a mass, radius or diameter
         :math:`\\le 0` or (unless ``drop_nonfinite``) a non-finite value, naming
         the file, the step, the atom id and the column.
     """
-    t_start = time.perf_counter()
-    paths = [os.fspath(p) for p in dumps]
-    contact_paths = [os.fspath(p) for p in contacts or ()]
-    if not paths:
-        raise CGInputError("no dump file given")
-    for p in paths + contact_paths:
-        if not os.path.isfile(p):
-            raise CGInputError(f"dump file {p} does not exist")
-    if coords not in COORDINATES:
-        raise CGInputError(f"--coords {coords!r} is not one of {', '.join(COORDINATES)}")
-    if kernel not in KERNELS:
-        raise CGInputError(f"--kernel {kernel!r} is not one of {', '.join(KERNELS)}")
-    if kernel != "heaviside":
-        if width is None:
-            raise CGInputError(f"--width is required for the {kernel} kernel "
-                               f"({'standard deviation' if kernel == 'gaussian' else 'range, where it falls to zero'})")
-        if not (math.isfinite(width) and width > 0):
-            raise CGInputError(f"--width {width} must be a positive finite length")
-        if cutoff is not None and kernel == "gaussian" and not (math.isfinite(cutoff) and cutoff > 0):
-            raise CGInputError(f"--cutoff {cutoff} must be a positive finite length")
-    if volume not in ("centre", "exact"):
-        raise CGInputError(f"volume {volume!r} is not 'centre' or 'exact'")
-    if volume == "exact" and not (kernel == "heaviside" and coords in ("x", "y", "z")):
-        raise CGInputError("--exact-volume needs --kernel heaviside and one Cartesian coordinate (x, y or z); "
-                           f"got --kernel {kernel} --coords {coords}")
-    if density is not None and not (math.isfinite(density) and density > 0):
-        raise CGInputError(f"--density {density} must be a positive finite number")
-    if int(n_blocks) < 2:
-        raise CGInputError(f"--blocks {n_blocks} must be at least 2 for standard errors")
-    select = frames if isinstance(frames, FrameSelection) else FrameSelection.parse(frames)
-
-    try:
-        formats = [dump_format(p) for p in paths]
-        contact_formats = [dump_format(p) for p in contact_paths]
-        first, populated = _first_frames(paths, select)
-    except DumpError as exc:
-        raise CGInputError(str(exc)) from None
-    names = list(first.columns)
-    lacking = missing_particle_columns(names, density)
-    if lacking:
-        raise CGInputError(f"{paths[0]} lacks {'; '.join(lacking)}; the file has the columns {' '.join(names)}")
-    if contact_paths and "id" not in first.columns:
-        raise CGInputError(f"--contacts needs the atom ids: {paths[0]} has no 'id' column "
-                           f"(columns: {' '.join(names)})")
-    if species is not None and "type" not in first.columns:
-        raise CGInputError(f"--species needs the atom types: {paths[0]} has no 'type' column "
-                           f"(columns: {' '.join(names)})")
-    box = np.asarray(first.box, dtype=float)
-    warnings: list[str] = []
-    axis_source = None
-    if coords in ("r", "rz"):
-        if axis is None:
-            axis = (0.5 * (box[0, 0] + box[0, 1]), 0.5 * (box[1, 0] + box[1, 1]))
-            axis_source = "box centre (no --axis given)"
-            warnings.append(f"axis not given: using the centre of the box in x, y, ({axis[0]:g}, {axis[1]:g})")
-        else:
-            axis = (float(axis[0]), float(axis[1]))
-            axis_source = "given"
-            if not all(math.isfinite(a) for a in axis):
-                raise CGInputError(f"--axis {axis} must be two finite numbers")
-            if not (box[0, 0] <= axis[0] <= box[0, 1] and box[1, 0] <= axis[1] <= box[1, 1]):
-                raise CGInputError(
-                    f"--axis {axis[0]:g},{axis[1]:g} lies outside the box (x in [{box[0, 0]:g}, {box[0, 1]:g}], "
-                    f"y in [{box[1, 0]:g}, {box[1, 1]:g}] at step {first.timestep})")
-    elif axis is not None:
-        raise CGInputError(f"--axis applies to --coords r and rz, not {coords}")
-    coordinates = _coordinates(coords, axis)
-    grid, notes = make_grid(coordinates.names, spacing, ranges, box, axis, kernel)
-    warnings += notes
-    if grid.n_nodes > int(max_nodes):
-        raise CGInputError(f"the grid has {grid.n_nodes} nodes ({grid.describe()}), over the budget of "
-                           f"{int(max_nodes)}: use a coarser --spacing, a smaller --range or raise --max-nodes "
-                           f"(memory grows as nodes x fields x {16 * int(n_blocks)} block sums)")
-    radii = _radii(populated) if populated is not None else None
-    if kernel != "heaviside" and radii is not None and radii.size and width < radii.min():
-        raise CGInputError(
-            f"--width {width:g} is below the smallest particle radius {radii.min():g} (frame at step "
-            f"{populated.timestep}): a kernel narrower than a particle resolves single particles, not a "
-            f"continuum; use a width of a radius or more (typically one to two diameters)")
-    if species == "auto":
-        if populated is None:
-            raise CGInputError("--species without ids: the first frames hold no atoms to take the types from; "
-                               "give them, e.g. --species 1,2")
-        species = sorted({int(t) for t in np.rint(populated.columns["type"])})
-    try:
-        kernel_obj = make_kernel(kernel, grid, width, cutoff)
-    except ValueError as exc:
-        raise CGInputError(str(exc)) from None
-    if kernel != "heaviside" and cutoff is None:
-        cutoff = GAUSSIAN_CUTOFF * width if kernel == "gaussian" else width
-
-    accumulator = FieldAccumulator(kernel_obj, coordinates, fields=_FIELDS, n_blocks=n_blocks,
-                                   species=species, method=method, volume=volume)
-    accumulator.prepare()
-
-    total_frames = None
-    if progress is not None and all(f == "binary" for f in formats):
-        # count the selected frames from the headers alone (select says no to all)
-        selected = []
-        try:
-            for _ in read_dumps(paths, select=lambda step: bool(selected.append(select(step)))):
-                pass
-            total_frames = sum(selected)
-        except DumpError:
-            total_frames = None
-    bar = _Progress(total_frames, progress)
-
-    truncated = None
-    n_frames = n_particles = n_inside = n_timed = 0
-    dropped = {"atom_frames": 0, "frames": 0, "first_step": None, "columns": {}}
-    steps: list[int] = []  # first and last only: nothing grows with the number of frames
-    intervals: set[int] = set()
-    times: list[float] = []
-    units = first.units
-
-    def particle_frames() -> Iterator[ParticleFrame]:
-        nonlocal truncated
-        try:
-            for path in paths:
-                for frame in read_dump(path, select=select):
-                    frame, columns, n_dropped = _possible_atoms(path, frame, drop_nonfinite)
-                    if n_dropped:
-                        dropped["atom_frames"] += n_dropped
-                        dropped["frames"] += 1
-                        if dropped["first_step"] is None:
-                            dropped["first_step"] = int(frame.timestep)
-                        for k, n in columns.items():
-                            dropped["columns"][k] = dropped["columns"].get(k, 0) + n
-                    yield ParticleFrame.from_dump(frame, density=density)
-        except DumpError as exc:
-            if getattr(exc, "truncated", False) and allow_truncated:
-                truncated = str(exc)
-                return
-            hint = " (--allow-truncated keeps the fields of the complete frames)" if getattr(exc, "truncated", False) else ""
-            raise CGInputError(f"{exc}{hint}") from None
-
-    contact_stream = None
-    if contact_paths:
-        def contact_frames():
-            try:
-                for p in contact_paths:
-                    yield from read_contact_dump(p, roles=contact_roles)
-            except DumpError as exc:
-                if getattr(exc, "truncated", False) and allow_truncated:
-                    return
-                raise CGInputError(str(exc)) from None
-        contact_stream = contact_frames()
-
-    try:
-        for frame, contact in _paired(particle_frames(), contact_stream, select, lambda: truncated is None):
-            if contact is not None and contact.branch is None:
-                contact = contact.with_branch(frame)
-            try:
-                accumulator.accumulate(frame, contact)
-            except (ValueError, KeyError) as exc:
-                raise CGInputError(f"frame at step {frame.timestep}: {exc}") from None
-            n_frames += 1
-            n_particles += len(frame.mass)
-            if len(frame.mass):
-                n_inside += int(grid.contains(coordinates.points(frame)).sum())
-            if steps:
-                if len(intervals) < 16:
-                    intervals.add(int(frame.timestep) - steps[-1])
-                steps[1:] = [int(frame.timestep)]
-            else:
-                steps.append(int(frame.timestep))
-            if frame.time is not None:
-                n_timed += 1
-                times[min(len(times), 1):] = [float(frame.time)]
-            bar.update(n_frames, n_particles, frame.timestep)
-    except CGInputError:
-        bar.abort()
-        raise
-    bar.update(n_frames, n_particles, steps[-1] if steps else 0, final=True)
-    if n_frames == 0:
-        raise CGInputError(f"no complete frame selected ({select.describe()}) in {', '.join(paths)}")
-    with _warnings.catch_warnings():  # reported below, with the centre counts
-        _warnings.simplefilter("ignore", SparseGridWarning)
-        table = accumulator.conclude()
-    fields_table = _tidy(table, coordinates.names)
-
-    if truncated:
-        warnings.append(f"truncated input: {truncated}; fields from the {n_frames} complete frames before it")
-    if n_particles == 0:
-        warnings.append(f"the {n_frames} selected frames hold no particles: every field is empty")
-    elif n_inside < SPARSE_FRACTION * n_particles:
-        warnings.append(
-            f"the grid is (nearly) empty: {n_inside} of {n_particles} particle-frames "
-            f"({100.0 * n_inside / n_particles:.2g} %) have their centre inside {grid.describe()}; "
-            + ("check --axis and --range" if coords in ("r", "rz") else "check --range"))
-    empty_nodes = int((fields_table["n"] <= 0).sum()) if "n" in fields_table else 0
-    if n_particles and empty_nodes > 0.5 * grid.n_nodes:
-        warnings.append(f"{empty_nodes} of {grid.n_nodes} nodes never held a particle's kernel weight")
-
-    elapsed = time.perf_counter() - t_start
-    inputs = [{"path": p, "role": "atoms", "format": f, "bytes": os.path.getsize(p), "sha256": _sha256(p)}
-              for p, f in zip(paths, formats)]
-    inputs += [{"path": p, "role": "contacts", "format": f, "bytes": os.path.getsize(p), "sha256": _sha256(p)}
-               for p, f in zip(contact_paths, contact_formats)]
-    meta = {
-        "tool": "granflow cg (postproc.cg.coarse_grain)",
-        "inputs": inputs,
-        "frames": {
-            "selection": select.describe(),
-            "count": n_frames,
-            "first_step": steps[0],
-            "last_step": steps[-1],
-            "step_intervals": sorted(intervals),
-            "first_time": times[0] if n_timed == n_frames else None,
-            "last_time": times[-1] if n_timed == n_frames else None,
-            "truncated": truncated,
-            "particle_frames": n_particles,
-            "particle_frames_in_grid": n_inside,
-            "dropped_nonfinite": dropped if drop_nonfinite else None,
-        },
-        "coordinates": {"choice": coords, "names": list(coordinates.names),
-                        "components": list(getattr(coordinates, "components", ("x", "y", "z"))),
-                        "axis": None if axis is None else list(axis), "axis_source": axis_source},
-        "kernel": {"name": kernel, "width": width, "cutoff": cutoff,
-                   "width_means": {"gaussian": "standard deviation", "lucy": "range (zero beyond)",
-                                   "heaviside": "unused: bins are the grid cells"}[kernel]},
-        "grid": {"names": list(grid.names), "ranges": [list(r) for r in grid.ranges],
-                 "spacing": list(grid.spacing), "nodes": list(grid.counts), "n_nodes": grid.n_nodes},
-        "volume_fraction": volume,
-        "density": density,
-        "species": None if species is None else list(species),
-        "fields": [c for c in fields_table.columns if not c.endswith("_se")],
-        "omitted_fields": accumulator.omitted_fields,
-        "standard_errors": f"std over {min(n_blocks, n_frames)} blocks of consecutive frames / sqrt(blocks)",
-        "stress_sign": "compressive positive",
-        "units": (f"as the dump's: LAMMPS units {units}" if units else
-                  "as the dump's (the dump does not name its units; dump_modify units yes would)"),
-        "warnings": warnings,
-        "elapsed_s": round(elapsed, 3),
-        "particle_frames_per_s": round(n_particles / elapsed, 1) if elapsed > 0 else None,
-    }
-    return CGResult(fields=fields_table, meta=meta, grid=grid, warnings=warnings)
-
-
-def describe_dropped(dropped: dict, n_frames: int) -> str:
-    """``dropped`` (``meta["frames"]["dropped_nonfinite"]``) in words."""
-    if not dropped["atom_frames"]:
-        return "no atom (none had a non-finite value)"
-    columns = ", ".join(f"{k} {n}" for k, n in dropped["columns"].items())
-    n = dropped["atom_frames"]
-    return (f"{n} atom-frame{'s' if n != 1 else ''} with a NaN or infinite value, in {dropped['frames']} of "
-            f"{n_frames} frames (the first at step {dropped['first_step']}; by column: {columns})")
+    paths, contact_paths = input_paths(dumps, contacts)
+    options = CGOptions(coords=coords, spacing=spacing, axis=axis, kernel=kernel, width=width, cutoff=cutoff,
+                        ranges=ranges, contact_roles=contact_roles, species=species, frames=frames,
+                        density=density, volume=volume, n_blocks=n_blocks, max_nodes=max_nodes,
+                        allow_truncated=allow_truncated, drop_nonfinite=drop_nonfinite, method=method)
+    return CoarseGraining(options).compute(paths, contact_paths, progress=progress)
 
 
 def _tidy(table: pd.DataFrame, names: Sequence[str]) -> pd.DataFrame:

@@ -1,7 +1,7 @@
 """The ``granflow cg`` command: coarse-grain LAMMPS dumps into continuum fields.
 
 Also runnable without granflow's CLI as ``python -m postproc.cg_cli``. The work
-is done by :func:`postproc.cg.coarse_grain`; this module parses and reports.
+is done by :class:`postproc.cg.CoarseGraining`; this module parses and reports.
 """
 from __future__ import annotations
 
@@ -11,8 +11,9 @@ import sys
 import textwrap
 from pathlib import Path
 
-from .cg import (COORDINATES, DEFAULT_BLOCKS, DEFAULT_MAX_NODES, GAUSSIAN_CUTOFF, KERNELS, CGInputError,
-                 check_outputs, coarse_grain, describe_dropped, parse_numbers, parse_ranges, write_result)
+from .cg import (COORDINATES, DEFAULT_BLOCKS, DEFAULT_MAX_NODES, GAUSSIAN_CUTOFF, KERNELS, CGInputError, CGOptions,
+                 CoarseGraining, check_outputs, describe_dropped, parse_numbers, parse_ranges, write_result)
+from .cg_frames import input_paths
 
 DESCRIPTION = """\
 Coarse-grain LAMMPS `dump custom` files (text, gzipped text or binary, told
@@ -129,14 +130,17 @@ def run(args: argparse.Namespace, command: str | None = None) -> int:
             axis = parse_numbers(args.axis, "--axis")
             if len(axis) != 2:
                 raise CGInputError(f"--axis {args.axis!r} needs two numbers X0,Y0")
-        result = coarse_grain(
-            args.dumps, args.coords, spacing=parse_numbers(args.spacing, "--spacing"), axis=axis,
-            kernel=args.kernel, width=args.width, cutoff=args.cutoff, ranges=parse_ranges(args.ranges),
-            contacts=args.contacts, contact_roles=_roles(args.contact_columns), species=_species(args.species),
+        spacing, ranges = parse_numbers(args.spacing, "--spacing"), parse_ranges(args.ranges)
+        roles, species = _roles(args.contact_columns), _species(args.species)
+        dumps, contacts = input_paths(args.dumps, args.contacts)  # a missing file before the choices
+        options = CGOptions(
+            coords=args.coords, spacing=spacing, axis=axis, kernel=args.kernel, width=args.width,
+            cutoff=args.cutoff, ranges=ranges, contact_roles=roles, species=species,
             frames=args.frames, density=args.density, volume="exact" if args.exact_volume else "centre",
             n_blocks=args.blocks, max_nodes=args.max_nodes, allow_truncated=args.allow_truncated,
-            drop_nonfinite=args.drop_nonfinite, progress=None if args.quiet else sys.stderr,
+            drop_nonfinite=args.drop_nonfinite,
         )
+        result = CoarseGraining(options).compute(dumps, contacts, progress=None if args.quiet else sys.stderr)
     except CGInputError as exc:
         print(f"granflow: refused: {exc}", file=sys.stderr)
         return 2

@@ -1,0 +1,278 @@
+"""The frames ``granflow cg`` (:mod:`postproc.cg`) reads: the input files, the first selected frames,
+the atom and contact frames streamed (the atoms no particle can have refused or dropped) and paired
+by step, what the frame loop counts, the progress line and the inputs' SHA-256."""
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Iterable, Iterator, Mapping, Sequence
+
+import numpy as np
+
+from .cg_output import CGInputError
+from .contacts import ContactFrame, read_contact_dump
+from .dump import DumpError, read_dump, read_dumps
+from .frame import DumpFrame, ImpossibleValues, ParticleFrame, impossible_values
+
+
+def input_paths(dumps: Sequence[str | os.PathLike], contacts: Sequence[str | os.PathLike] | None = ()
+                ) -> tuple[list[str], list[str]]:
+    """The atom and contact dump paths as strings; refuses none given or one that is not a file."""
+    paths = [os.fspath(p) for p in dumps]
+    contact_paths = [os.fspath(p) for p in contacts or ()]
+    if not paths:
+        raise CGInputError("no dump file given")
+    for p in paths + contact_paths:
+        if not os.path.isfile(p):
+            raise CGInputError(f"dump file {p} does not exist")
+    return paths, contact_paths
+
+
+def count_selected(paths: Sequence[str], select: Callable[[int], bool]) -> int | None:
+    """The selected frames of binary dumps, from their headers alone; None if a dump cannot tell."""
+    selected = []
+    try:
+        for _ in read_dumps(paths, select=lambda step: bool(selected.append(select(step)))):
+            pass  # select says no to all
+        return sum(selected)
+    except DumpError:
+        return None
+
+
+@dataclass
+class FrameTally:
+    """What the frame loop counts as it goes; nothing grows with the number of frames."""
+
+    n_frames: int = 0
+    n_particles: int = 0
+    n_inside: int = 0  # particle-frames with their centre inside the grid
+    n_timed: int = 0  # frames with a time
+    steps: list[int] = field(default_factory=list)  # the first and the last
+    intervals: set[int] = field(default_factory=set)  # up to 16 distinct step intervals
+    times: list[float] = field(default_factory=list)  # the first and the last
+    dropped: dict = field(default_factory=lambda: {"atom_frames": 0, "frames": 0, "first_step": None,
+                                                   "columns": {}})
+    truncated: str | None = None  # the error that ended a truncated dump, when allowed
+
+    def drop(self, timestep: int, columns: dict[str, int], n_dropped: int) -> None:
+        """Count ``n_dropped`` atoms left out of the frame at ``timestep`` (per offending column)."""
+        self.dropped["atom_frames"] += n_dropped
+        self.dropped["frames"] += 1
+        if self.dropped["first_step"] is None:
+            self.dropped["first_step"] = int(timestep)
+        for k, n in columns.items():
+            self.dropped["columns"][k] = self.dropped["columns"].get(k, 0) + n
+
+    def add(self, frame: ParticleFrame, n_inside: int) -> None:
+        """Count a frame deposited, ``n_inside`` of its particles inside the grid."""
+        self.n_frames += 1
+        self.n_particles += len(frame.mass)
+        self.n_inside += n_inside
+        if self.steps:
+            if len(self.intervals) < 16:
+                self.intervals.add(int(frame.timestep) - self.steps[-1])
+            self.steps[1:] = [int(frame.timestep)]
+        else:
+            self.steps.append(int(frame.timestep))
+        if frame.time is not None:
+            self.n_timed += 1
+            self.times[min(len(self.times), 1):] = [float(frame.time)]
+
+
+def particle_frames(paths: Sequence[str], select: Callable[[int], bool], tally: FrameTally, *,
+                    density: float | None, drop_nonfinite: bool, allow_truncated: bool) -> Iterator[ParticleFrame]:
+    """The selected frames of the dumps in turn, as particle frames (:func:`possible_atoms` first).
+
+    Dropped atoms and, with ``allow_truncated``, the end of a truncated dump are recorded in ``tally``.
+    """
+    try:
+        for path in paths:
+            for frame in read_dump(path, select=select):
+                frame, columns, n_dropped = possible_atoms(path, frame, drop_nonfinite)
+                if n_dropped:
+                    tally.drop(frame.timestep, columns, n_dropped)
+                yield ParticleFrame.from_dump(frame, density=density)
+    except DumpError as exc:
+        if getattr(exc, "truncated", False) and allow_truncated:
+            tally.truncated = str(exc)
+            return
+        truncated = getattr(exc, "truncated", False)
+        hint = " (--allow-truncated keeps the fields of the complete frames)" if truncated else ""
+        raise CGInputError(f"{exc}{hint}") from None
+
+
+def contact_frames(paths: Sequence[str], roles: Mapping[str, str] | None, allow_truncated: bool
+                   ) -> Iterator[ContactFrame]:
+    """The frames of the contact dumps in turn; a truncated one ends them when ``allow_truncated``."""
+    try:
+        for p in paths:
+            yield from read_contact_dump(p, roles=roles)
+    except DumpError as exc:
+        if getattr(exc, "truncated", False) and allow_truncated:
+            return
+        raise CGInputError(str(exc)) from None
+
+
+class Progress:
+    """Frames done, on one stderr line (a bar when the total is known), at most every ``interval`` s.
+
+    The first line comes one interval after the start (a refusal in the first frames is then the
+    only line); :meth:`abort` ends an open terminal line before a refusal is printed.
+    """
+
+    def __init__(self, total: int | None, stream=None, interval: float = 0.5):
+        self.total = total
+        self.stream = stream
+        self.interval = interval
+        self.tty = bool(stream is not None and getattr(stream, "isatty", lambda: False)())
+        self.start = time.perf_counter()
+        self.last = self.start
+        self.printed = False
+        self.open = False
+
+    def abort(self) -> None:
+        if self.open:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.open = False
+
+    def update(self, frames: int, particles: int, step: int, final: bool = False) -> None:
+        if self.stream is None:
+            return
+        now = time.perf_counter()
+        if not final and now - self.last < (self.interval if self.tty else 30.0):
+            return
+        self.last = now
+        rate = particles / max(now - self.start, 1e-9)
+        if self.total:
+            done = min(frames / self.total, 1.0)
+            bar = "#" * int(30 * done) + "-" * (30 - int(30 * done))
+            text = f"cg [{bar}] {frames}/{self.total} frames"
+        else:
+            text = f"cg {frames} frames"
+        text += f", step {step}, {rate / 1e6:.2f} M particle-frames/s"
+        if self.tty:
+            self.stream.write("\r" + text + ("\n" if final else ""))
+            self.open = not final
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+        self.printed = True
+
+
+def sha256(path: str | os.PathLike) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 22), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def first_frames(paths: Sequence[str], select: Callable[[int], bool], limit: int = 64) -> tuple[DumpFrame, DumpFrame | None]:
+    """The first selected frame and the first selected one holding atoms (None if not within ``limit``)."""
+    first = None
+    for k, frame in enumerate(read_dumps(paths, select=select)):
+        first = first or frame
+        if frame.natoms > 0:
+            return first, frame
+        if k >= limit:
+            break
+    if first is None:
+        raise CGInputError(f"no frame of {', '.join(paths)} is selected by --frames")
+    return first, None
+
+
+def possible_radii(frame: DumpFrame) -> np.ndarray | None:
+    """The frame's possible radii (finite and > 0: the others are refused or dropped as the frames are read)."""
+    c = frame.columns
+    if "radius" in c:
+        radii = np.asarray(c["radius"], float)
+    elif "diameter" in c:
+        radii = 0.5 * np.asarray(c["diameter"], float)
+    else:
+        return None
+    return radii[np.isfinite(radii) & (radii > 0)]
+
+
+def _atom(frame: DumpFrame, row: int) -> str:
+    """The atom in row ``row`` of the frame, by its id when the dump has one."""
+    if "id" not in frame.columns:
+        return f"atom {row + 1} of the frame (the dump has no id column)"
+    atom_id = float(frame.columns["id"][row])
+    if not math.isfinite(atom_id):
+        return f"atom {row + 1} of the frame (id {atom_id:g})"
+    return f"atom id {int(round(atom_id))}"
+
+
+def _impossible_message(path: str, frame: DumpFrame, columns: dict[str, np.ndarray], allowed: str) -> str:
+    row, column, count = ImpossibleValues.first(columns)
+    value = float(frame.columns[column][row])
+    others = f" ({count} atoms of this frame have such values)" if count > 1 else ""
+    return (f"{path}: frame at step {frame.timestep}, {_atom(frame, row)}: column {column} = {value:g} "
+            f"is not allowed: allowed {allowed}{others}")
+
+
+def possible_atoms(path: str, frame: DumpFrame, drop_nonfinite: bool) -> tuple[DumpFrame, dict[str, int], int]:
+    """The frame, refused if an atom has a value no particle can have (:func:`~postproc.frame.impossible_values`).
+
+    A mass, radius or diameter :math:`\\le 0` is always refused; a NaN or an
+    infinity (position, velocity, spin, mass, radius) is refused unless
+    ``drop_nonfinite``, when those atoms are left out. Returns the frame (without
+    them), the dropped atoms per offending column and the number of atoms dropped.
+    """
+    found = impossible_values(frame)
+    if found is None:
+        return frame, {}, 0
+    if found.nonpositive:
+        raise CGInputError(_impossible_message(path, frame, found.nonpositive, "a positive finite number"))
+    if not drop_nonfinite:
+        raise CGInputError(_impossible_message(path, frame, found.nonfinite, "a finite number")
+                           + "; --drop-nonfinite leaves such atoms out and counts them")
+    bad = found.nonfinite_rows
+    keep = ~bad
+    kept = DumpFrame(timestep=frame.timestep, box=frame.box, boundary=frame.boundary,
+                     columns={k: v[keep] for k, v in frame.columns.items()}, time=frame.time, units=frame.units)
+    return kept, {k: int(np.count_nonzero(v)) for k, v in found.nonfinite.items()}, int(np.count_nonzero(bad))
+
+
+def paired(frames: Iterable[ParticleFrame], contacts: Iterator[ContactFrame] | None, select,
+            strict_end: Callable[[], bool]):
+    """Yield (frame, contacts) with contacts matched by timestep; refuse unmatched ones."""
+    if contacts is None:
+        for frame in frames:
+            yield frame, None
+        return
+    def next_contact() -> ContactFrame | None:
+        for c in contacts:
+            if select(c.timestep):
+                return c
+        return None
+
+    pending = next_contact()
+    for frame in frames:
+        if pending is not None and pending.timestep < frame.timestep:
+            raise CGInputError(f"contact frame at step {pending.timestep} has no atom frame at that step "
+                               f"(the next atom frame is at step {frame.timestep}); contacts and atoms "
+                               f"must be dumped at the same steps")
+        if pending is None or pending.timestep != frame.timestep:
+            raise CGInputError(f"atom frame at step {frame.timestep} has no contact frame at that step"
+                               + ("" if pending is None else f" (the next contact frame is at step {pending.timestep})"))
+        yield frame, pending
+        pending = next_contact()
+    if pending is not None and strict_end():
+        raise CGInputError(f"contact frame at step {pending.timestep} has no atom frame at that step "
+                           f"(the atom frames end before it)")
+
+
+def describe_dropped(dropped: dict, n_frames: int) -> str:
+    """``dropped`` (``meta["frames"]["dropped_nonfinite"]``) in words."""
+    if not dropped["atom_frames"]:
+        return "no atom (none had a non-finite value)"
+    columns = ", ".join(f"{k} {n}" for k, n in dropped["columns"].items())
+    n = dropped["atom_frames"]
+    return (f"{n} atom-frame{'s' if n != 1 else ''} with a NaN or infinite value, in {dropped['frames']} of "
+            f"{n_frames} frames (the first at step {dropped['first_step']}; by column: {columns})")
+

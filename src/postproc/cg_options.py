@@ -1,0 +1,337 @@
+"""The choices of ``granflow cg`` (:mod:`postproc.cg`): the coordinate and kernel names and defaults,
+the frame selection, the grid and kernel they make, and :class:`CGOptions`, all of them checked once."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from .cg_output import CGInputError
+from .coordinates import CartesianCoordinates, RCoordinates, RZCoordinates
+from .kernels import Gaussian, HeavisideBins, Lucy
+
+#: Coordinate choices.
+COORDINATES = ("x", "y", "z", "xy", "xz", "yz", "xyz", "r", "rz")
+#: Kernel choices.
+KERNELS = ("gaussian", "lucy", "heaviside")
+#: Default truncation of the Gaussian, in standard deviations.
+GAUSSIAN_CUTOFF = 3.0
+#: Default node budget (the accumulator keeps ~130 copies of the primitive
+#: densities for block errors: 250 000 nodes x 26 primitives is ~7 GB).
+DEFAULT_MAX_NODES = 100_000
+#: Blocks of consecutive frames for the standard errors.
+DEFAULT_BLOCKS = 8
+
+
+# --------------------------------------------------------------------------- frames
+
+
+@dataclass(frozen=True)
+class FrameSelection:
+    """Frames by timestep: ``start <= step <= stop`` and every ``every``-th step from ``start``.
+
+    Parsed from ``START:STOP[:EVERY]`` (:meth:`parse`); an empty part is open.
+    """
+
+    start: int | None = None
+    stop: int | None = None
+    every: int | None = None
+
+    @classmethod
+    def parse(cls, text: str | None) -> "FrameSelection":
+        if text is None or text == "":
+            return cls()
+        parts = str(text).split(":")
+        if len(parts) not in (2, 3):
+            raise CGInputError(f"--frames {text!r} is not START:STOP[:EVERY] (timesteps, STOP included)")
+        values = []
+        for name, part in zip(("START", "STOP", "EVERY"), parts):
+            if part.strip() == "":
+                values.append(None)
+                continue
+            try:
+                value = int(part)
+            except ValueError:
+                raise CGInputError(f"--frames {text!r}: {name} {part!r} is not an integer timestep") from None
+            if value < 0:
+                raise CGInputError(f"--frames {text!r}: {name} {value} must be >= 0")
+            values.append(value)
+        values += [None] * (3 - len(values))
+        start, stop, every = values
+        if start is not None and stop is not None and stop < start:
+            raise CGInputError(f"--frames {text!r}: STOP {stop} is before START {start}")
+        if every is not None and every < 1:
+            raise CGInputError(f"--frames {text!r}: EVERY must be at least 1, got {every}")
+        return cls(start, stop, every)
+
+    def __call__(self, timestep: int) -> bool:
+        if self.start is not None and timestep < self.start:
+            return False
+        if self.stop is not None and timestep > self.stop:
+            return False
+        if self.every is not None and (timestep - (self.start or 0)) % self.every:
+            return False
+        return True
+
+    def describe(self) -> str:
+        if self == FrameSelection():
+            return "all frames"
+        lo = "first" if self.start is None else f"step {self.start}"
+        hi = "last" if self.stop is None else f"step {self.stop}"
+        every = "" if self.every is None else f", every {self.every} steps"
+        return f"{lo} to {hi} (included){every}"
+
+
+
+# --------------------------------------------------------------------------- grid
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A regular grid of cells: per coordinate a range ``(lo, hi)`` cut into ``count`` cells.
+
+    Nodes are the cell centres; Heaviside bins are the cells themselves.
+    """
+
+    names: tuple[str, ...]
+    ranges: tuple[tuple[float, float], ...]
+    counts: tuple[int, ...]
+
+    @property
+    def spacing(self) -> tuple[float, ...]:
+        return tuple((hi - lo) / n for (lo, hi), n in zip(self.ranges, self.counts))
+
+    @property
+    def n_nodes(self) -> int:
+        return int(np.prod(self.counts))
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(self.counts)
+
+    def edges(self) -> tuple[np.ndarray, ...]:
+        return tuple(np.linspace(lo, hi, n + 1) for (lo, hi), n in zip(self.ranges, self.counts))
+
+    def nodes(self) -> tuple[np.ndarray, ...]:
+        return tuple(0.5 * (e[1:] + e[:-1]) for e in self.edges())
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """Which points (N, d) lie inside the grid's ranges."""
+        inside = np.ones(len(points), dtype=bool)
+        for k, (lo, hi) in enumerate(self.ranges):
+            inside &= (points[:, k] >= lo) & (points[:, k] <= hi)
+        return inside
+
+    def describe(self) -> str:
+        return ", ".join(f"{n} in [{lo:g}, {hi:g}] ({c} nodes)" for n, (lo, hi), c in
+                         zip(self.names, self.ranges, self.counts))
+
+
+def _per_coordinate(values, names: Sequence[str], option: str) -> list:
+    values = list(values) if isinstance(values, (list, tuple)) else [values]
+    if len(values) == 1:
+        return values * len(names)
+    if len(values) != len(names):
+        raise CGInputError(f"{option} gives {len(values)} values but the coordinates {''.join(names)!r} "
+                           f"have {len(names)}: give one for all or one per coordinate, in the order "
+                           f"{', '.join(names)}")
+    return values
+
+
+def parse_numbers(text: str, option: str) -> list[float]:
+    """``"0.1,0.2"`` -> [0.1, 0.2], refusing anything that is not a finite number."""
+    out = []
+    for part in str(text).split(","):
+        try:
+            value = float(part)
+        except ValueError:
+            raise CGInputError(f"{option} {text!r}: {part!r} is not a number") from None
+        if not math.isfinite(value):
+            raise CGInputError(f"{option} {text!r}: {part!r} is not finite")
+        out.append(value)
+    return out
+
+
+def parse_ranges(text: str | None) -> list[tuple[float, float]] | None:
+    """``"LO:HI[,LO:HI,...]"`` -> [(lo, hi), ...]; None for None."""
+    if text is None:
+        return None
+    out = []
+    for part in str(text).split(","):
+        bounds = part.split(":")
+        if len(bounds) != 2:
+            raise CGInputError(f"--range {text!r}: {part!r} is not LO:HI")
+        lo, hi = (parse_numbers(b, "--range")[0] for b in bounds)
+        out.append((lo, hi))
+    return out
+
+
+def make_coordinates(coords: str, axis):
+    if coords in ("r", "rz"):
+        cls = RCoordinates if coords == "r" else RZCoordinates
+        return cls(axis)
+    return CartesianCoordinates(coords)
+
+
+def _default_range(name: str, box: np.ndarray, axis) -> tuple[float, float]:
+    if name == "r":
+        x0, y0 = axis
+        return 0.0, float(min(x0 - box[0, 0], box[0, 1] - x0, y0 - box[1, 0], box[1, 1] - y0))
+    k = "xyz".index(name)
+    return float(box[k, 0]), float(box[k, 1])
+
+
+def make_grid(names: Sequence[str], spacing, ranges, box: np.ndarray, axis=None,
+              kernel: str = "gaussian") -> tuple[Grid, list[str]]:
+    """The grid of ``spacing`` over ``ranges`` (default from the box); notes on adjusted spacings."""
+    spacing = _per_coordinate(spacing, names, "--spacing")
+    ranges = _per_coordinate(ranges, names, "--range") if ranges is not None else [None] * len(names)
+    out_ranges, counts, notes = [], [], []
+    for name, h, rng in zip(names, spacing, ranges):
+        if not (h > 0 and math.isfinite(h)):
+            raise CGInputError(f"--spacing {h} for {name} must be a positive finite length")
+        lo, hi = rng if rng is not None else _default_range(name, box, axis)
+        if not hi > lo:
+            source = "--range" if rng is not None else f"the box (from the first frame) gives {name} range"
+            raise CGInputError(f"{source} {lo:g}:{hi:g} for {name} is empty: HI must exceed LO")
+        if name == "r" and lo < 0:
+            raise CGInputError(f"--range {lo:g}:{hi:g} for r starts below 0; the radius is >= 0")
+        n = max(1, int(round((hi - lo) / h)))
+        if abs(n * h - (hi - lo)) > 1e-9 * (hi - lo):
+            notes.append(f"spacing along {name} adjusted from {h:g} to {(hi - lo) / n:g} "
+                         f"for a whole number of cells in [{lo:g}, {hi:g}]")
+        if kernel != "heaviside" and n < 2:
+            raise CGInputError(f"--spacing {h:g} gives a single node along {name} in [{lo:g}, {hi:g}]; "
+                               f"a smooth kernel needs at least 2 nodes per coordinate")
+        out_ranges.append((float(lo), float(hi)))
+        counts.append(n)
+    return Grid(tuple(names), tuple(out_ranges), tuple(counts)), notes
+
+
+def make_kernel(kernel: str, grid: Grid, width: float | None, cutoff: float | None):
+    if kernel == "heaviside":
+        return HeavisideBins(grid.edges())
+    if kernel == "gaussian":
+        return Gaussian(width, cutoff if cutoff is not None else GAUSSIAN_CUTOFF * width, grid.nodes())
+    return Lucy(width, grid.nodes())
+
+
+
+# --------------------------------------------------------------------------- options
+
+
+@dataclass(frozen=True, kw_only=True)
+class CGOptions:
+    """Every choice of a coarse-graining (:class:`postproc.cg.CoarseGraining`), checked once, on construction.
+
+    Raises :class:`~postproc.cg_output.CGInputError` for a choice refused whatever the dumps hold
+    (the messages of :func:`postproc.cg.coarse_grain`); the choices that depend on the dumps (the
+    axis, the grid, the width against the radii, the node budget) are checked against the first
+    selected frame when the frames are read. Lists given are held as tuples, ``frames`` as a
+    :class:`FrameSelection`, ``contact_roles`` as a read-only mapping.
+
+    Attributes
+    ----------
+    coords : str
+        One of :data:`COORDINATES` (:mod:`postproc.cg`).
+    spacing : float or sequence of float
+        Node spacing, one for all coordinates or one per coordinate.
+    axis : (float, float), optional
+        :math:`(x_0, y_0)` of the vertical axis of ``r`` and ``rz``; default the
+        centre of the box in :math:`x, y` (recorded in the meta and a warning).
+    kernel : str
+        One of :data:`KERNELS`.
+    width : float
+        Gaussian standard deviation, or Lucy's range; required for both, at least
+        the smallest particle radius.
+    cutoff : float, optional
+        Gaussian truncation radius (default :data:`GAUSSIAN_CUTOFF` widths).
+    ranges : (lo, hi) or sequence of (lo, hi), optional
+        Grid range per coordinate (:mod:`postproc.cg` for the default).
+    contact_roles : mapping, optional
+        Column name of each role (``id1 id2 dx dy dz fx fy fz`` ...), when the
+        header does not say (:func:`postproc.contacts.read_contact_dump`).
+    species : "auto" or sequence of int, optional
+        Per-type partial fields; ``"auto"`` takes the types of the first frame
+        holding atoms.
+    frames : str or FrameSelection, optional
+        ``START:STOP[:EVERY]`` in timesteps, STOP included.
+    density : float, optional
+        Particle material density, when the dump has no mass column.
+    volume : {"centre", "exact"}
+        Volume fraction from whole spheres at their centres, or (Heaviside bins
+        along one Cartesian axis) from each sphere's exact split over the bins.
+    n_blocks : int
+        Blocks of consecutive frames for the standard errors.
+    max_nodes : int
+        Node budget; a larger grid is refused before reading.
+    allow_truncated : bool
+        On a truncated dump, keep the fields of the complete frames (with a
+        warning) instead of refusing.
+    drop_nonfinite : bool
+        Leave out the atoms with a NaN or infinite position, velocity, spin,
+        mass or radius (counted in ``meta["frames"]["dropped_nonfinite"]``:
+        atom-frames, frames, the first step, per column) instead of refusing the
+        input. A mass or radius :math:`\\le 0` is refused either way.
+    method : {"auto", "compiled", "numpy"}
+        Deposit path (the compiled one is used for Gaussian ``rz`` by default).
+    """
+
+    coords: str = "z"
+    spacing: float | Sequence[float]
+    axis: tuple[float, float] | None = None
+    kernel: str = "gaussian"
+    width: float | None = None
+    cutoff: float | None = None
+    ranges: Sequence[tuple[float, float]] | None = None
+    contact_roles: Mapping[str, str] | None = None
+    species: str | Sequence[int] | None = None
+    frames: FrameSelection | str | None = None
+    density: float | None = None
+    volume: str = "centre"
+    n_blocks: int = DEFAULT_BLOCKS
+    max_nodes: int = DEFAULT_MAX_NODES
+    allow_truncated: bool = False
+    drop_nonfinite: bool = False
+    method: str = "auto"
+
+    def __post_init__(self):
+        coords, kernel, width, cutoff = self.coords, self.kernel, self.width, self.cutoff
+        if coords not in COORDINATES:
+            raise CGInputError(f"--coords {coords!r} is not one of {', '.join(COORDINATES)}")
+        if kernel not in KERNELS:
+            raise CGInputError(f"--kernel {kernel!r} is not one of {', '.join(KERNELS)}")
+        if kernel != "heaviside":
+            if width is None:
+                raise CGInputError(f"--width is required for the {kernel} kernel "
+                                   f"({'standard deviation' if kernel == 'gaussian' else 'range, where it falls to zero'})")
+            if not (math.isfinite(width) and width > 0):
+                raise CGInputError(f"--width {width} must be a positive finite length")
+            if cutoff is not None and kernel == "gaussian" and not (math.isfinite(cutoff) and cutoff > 0):
+                raise CGInputError(f"--cutoff {cutoff} must be a positive finite length")
+        if self.volume not in ("centre", "exact"):
+            raise CGInputError(f"volume {self.volume!r} is not 'centre' or 'exact'")
+        if self.volume == "exact" and not (kernel == "heaviside" and coords in ("x", "y", "z")):
+            raise CGInputError("--exact-volume needs --kernel heaviside and one Cartesian coordinate (x, y or z); "
+                               f"got --kernel {kernel} --coords {coords}")
+        if self.density is not None and not (math.isfinite(self.density) and self.density > 0):
+            raise CGInputError(f"--density {self.density} must be a positive finite number")
+        if int(self.n_blocks) < 2:
+            raise CGInputError(f"--blocks {self.n_blocks} must be at least 2 for standard errors")
+        frames = self.frames if isinstance(self.frames, FrameSelection) else FrameSelection.parse(self.frames)
+        object.__setattr__(self, "frames", frames)
+        for name in ("spacing", "ranges", "species"):  # held, not shared with the caller
+            if isinstance(getattr(self, name), list):
+                object.__setattr__(self, name, tuple(getattr(self, name)))
+        if self.contact_roles is not None:
+            object.__setattr__(self, "contact_roles", MappingProxyType(dict(self.contact_roles)))
+
+    @property
+    def kernel_cutoff(self) -> float | None:
+        """The cutoff as recorded in the meta: the one given, or the kernel's default (Lucy's: its width)."""
+        if self.kernel != "heaviside" and self.cutoff is None:
+            return GAUSSIAN_CUTOFF * self.width if self.kernel == "gaussian" else self.width
+        return self.cutoff

@@ -1,5 +1,5 @@
 """The report's front page: the campaign as run, how each case ended, its headline numbers
-beside the papers' values, and the CPU-hours spent.
+beside the papers' values, and the CPU-hours spent, read at a glance.
 
 Built from the scenes' records (``<validation dir>/<scene>/summary.json``, written by
 :func:`granflow.validation.write_record` for the campaign's own rung: every case with its
@@ -8,11 +8,19 @@ with its statistical error and the verdict). The page is reStructuredText, which
 Snakemake's report renders first (the Snakefile's global ``report:`` statement), before the
 per-scene sections. Snakemake passes that text through Jinja first; the page is wrapped in
 a ``raw`` block so that a brace in a reason or a source cannot be read as a template.
+
+Every case is one line: scene, case, its status with a reason of a few words
+(:func:`short_reason`: the status word, and for a case that is not steady the first clause of
+its reason cut at a word boundary to :data:`SHORT_REASON` characters), particles and CPU-hours.
+The full reason stays in the scene's record and its table (``status_reason`` of
+``table.csv``, the scene's section of the report). The rules here read only the records: they
+never name a scene.
 """
 from __future__ import annotations
 
 import json
 import math
+import re
 from collections import Counter
 from pathlib import Path
 
@@ -27,9 +35,17 @@ _RST_SPECIAL = "\\`*_|[]<>"
 #: for images; the same for a long description: this page's title sat 5,200 px above the
 #: window). The page's own style aligns that box to the top; it lives in this page's HTML
 #: only, so the other pages of the report keep Snakemake's layout.
-TOP_ALIGN = [".. raw:: html", "",
-             "   <style>.items-center.justify-center.overflow-auto { align-items: flex-start !important; }</style>",
-             ""]
+TOP_ALIGN = ".items-center.justify-center.overflow-auto { align-items: flex-start !important; }"
+#: read at a glance: Snakemake sets the page in a column 32 rem wide beside the rule graph, where a
+#: table of 5 columns wraps every cell; the page's column takes the width the rule graph leaves,
+#: its titles are smaller and its tables (class ``glance``) keep each row on one line.
+GLANCE = (".prose.max-w-lg { max-width: none; } "
+          ".prose h1 { font-size: 1.5em; margin: 0.6em 0 0.3em; } "
+          ".prose h1.title { font-size: 1.9em; margin-top: 0; } "
+          ".prose table.glance { font-size: 0.8rem; line-height: 1.35; width: auto; margin: 0.2em 0 0.6em; } "
+          ".prose table.glance caption { text-align: left; font-size: 0.75rem; padding-bottom: 0.2em; } "
+          ".prose table.glance th, .prose table.glance td { padding: 0.12em 1.1em 0.12em 0; white-space: nowrap; }")
+PAGE_STYLE = [".. raw:: html", "", f"   <style>{TOP_ALIGN} {GLANCE}</style>", ""]
 
 
 def rst_text(value) -> str:
@@ -39,13 +55,49 @@ def rst_text(value) -> str:
     return out or "–"
 
 
+#: a case's short reason: the first clause of its reason cut to at most this many characters
+SHORT_REASON = 40
+#: the status of a case that ran as it should (steady, then averaged): its status word says it all
+STEADY = "steady"
+#: where a reason's first clause ends: ``;`` ``:`` ``,`` or ``.`` before a space, a space before
+#: ``(``, or a dash between spaces (a comma or point inside a number such as 27,727 or 0.3 does not)
+_CLAUSE_END = re.compile(r"[;:,.](?=\s)|\s(?=\()|\s[–—-]\s")
+
+
+def cut(text, limit: int) -> str:
+    """``text`` on one line, cut at a word boundary to at most ``limit`` characters with an ellipsis."""
+    text = " ".join(str(text).split())
+    if len(text) <= limit:
+        return text
+    space = text.rfind(" ", 0, limit + 1)
+    head = text[:space] if space > 0 else text[:limit]
+    return head.rstrip(" ,;:.([–—-") + "…"
+
+
+def first_clause(text) -> str:
+    """The words of ``text`` up to its first clause boundary (:data:`_CLAUSE_END`)."""
+    text = " ".join(str(text or "").split())
+    end = _CLAUSE_END.search(text)
+    return text[:end.start()].strip() if end else text
+
+
+def short_reason(status, reason) -> str:
+    """How a case ended in a few words: ``steady``, or the status word and the first clause of
+    its reason cut to :data:`SHORT_REASON` characters, e.g. ``jammed: wall friction holds``."""
+    status = str(status or "unknown")
+    clause = cut(first_clause(reason), SHORT_REASON)
+    return status if status == STEADY or not clause else f"{status}: {clause}"
+
+
 def _hours(x) -> str:
     return f"{x:.2f}" if isinstance(x, (int, float)) and math.isfinite(x) else "–"
 
 
-def _table(title: str, header: list[str], rows: list[list[str]], widths: list[int]) -> list[str]:
+def _table(title: str, header: list[str], rows: list[list[str]], widths: list[int] | None = None) -> list[str]:
+    """A list-table; without ``widths`` its columns take their contents' widths, one line a row."""
     out = [f".. list-table:: {rst_text(title)}", "   :header-rows: 1",
-           "   :widths: " + " ".join(str(w) for w in widths), ""]
+           "   :widths: " + (" ".join(str(w) for w in widths) if widths else "auto"),
+           *([] if widths else ["   :class: glance"]), ""]
     for row in [header, *rows]:
         out.append(f"   * - {rst_text(row[0])}")
         out.extend(f"     - {rst_text(cell)}" for cell in row[1:])
@@ -59,7 +111,7 @@ def overview_rst(summaries: list[dict], rung: str) -> str:
                 if isinstance(c.get("cpu_hours"), (int, float)) and math.isfinite(c["cpu_hours"]))
     statuses = Counter(c.get("status") or "unknown" for _, c in cases)
     title = f"granflow campaign at rung {rung}"
-    lines = ["{% raw %}", *TOP_ALIGN, title, "=" * len(title), ""]
+    lines = ["{% raw %}", *PAGE_STYLE, title, "=" * len(title), ""]
     lines += [rst_text(
         f"What ran: {len(summaries)} scene(s), {len(cases)} case(s), {hours:.2f} CPU-hours of LAMMPS "
         f"(all ranks, user + system). How the cases ended: "
@@ -70,11 +122,11 @@ def overview_rst(summaries: list[dict], rung: str) -> str:
             "than the papers': a difference from the paper here is not a verdict on granflow. The committed "
             "validation record (section validation) compares the validation rung with the papers."), ""]
     lines += ["Cases", "-----", ""]
-    rows = [[scene, c.get("dir", ""), c.get("status", ""), c.get("reason", ""),
+    rows = [[scene, c.get("dir", ""), short_reason(c.get("status"), c.get("reason")),
              f"{c['particles']:,}" if isinstance(c.get("particles"), int) else "–", _hours(c.get("cpu_hours"))]
             for scene, c in cases]
-    lines += _table(f"Each case of the campaign (rung {rung})",
-                    ["scene", "case", "status", "reason", "particles", "CPU-h"], rows, [8, 12, 10, 50, 8, 6])
+    lines += _table(f"Rung {rung}; each reason in full: the scene's table (status_reason)",
+                    ["scene", "case", "status: reason", "particles", "CPU-h"], rows)
     lines += ["Headline numbers against the papers", "-----------------------------------", ""]
     for s in summaries:
         checks = s.get("checks", [])

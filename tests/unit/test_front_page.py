@@ -127,3 +127,87 @@ def test_no_scene_is_named_in_the_front_pages_code():
     assert names
     for name in names:
         assert not re.search(rf"\b{re.escape(name)}\b", source, re.IGNORECASE), name
+
+
+# ------------------------------------------------------------------ the headlines
+def headline_table(tables):
+    (table,) = [t for t in tables if t["rows"] and t["rows"][0][:2] == ["scene", "quantity"]]
+    return table
+
+
+def check(quantity, case="a", paper_range=(1.0, 1.0), verdict="within error (0.5 σ)", **kw):
+    return {"quantity": quantity, "paper": "1", "source": "Fig. 1", "ours": 1.0, "error": 0.1, "case": case,
+            "paper_range": paper_range, "unit": "", "verdict": verdict, **kw}
+
+
+def test_headlines_one_per_quantity_numbers_first_at_most_a_few():
+    summary = {"scene": "x", "cases": [{"dir": "a"}, {"dir": "b"}], "checks": [
+        check("shape only", paper_range=None, verdict="shape compared (see note)"),
+        check("per case", case="a", paper_range=None, verdict="shape compared (see note)"),
+        check("per case", case="b"),                      # the first of its quantity compared with a number
+        check("per case", case="c"),
+        check("fit", case="sweep"),
+        check("another", case="b"), check("and another")]}
+    picked = overview.headlines(summary)
+    assert [(c["quantity"], c["case"]) for c in picked] == [("per case", "b"), ("fit", "sweep"), ("another", "b")]
+    assert len(picked) == overview.HEADLINES_PER_SCENE
+    only_shapes = {"checks": [check("s1", paper_range=None), check("s2", paper_range=None)]}
+    assert [c["quantity"] for c in overview.headlines(only_shapes)] == ["s1", "s2"]
+    assert overview.headlines({"checks": []}) == []
+
+
+def test_verdicts_in_a_few_words():
+    from granflow.validation import verdict
+
+    def short(*args, **kw):
+        return overview.short_verdict(verdict(*args, **kw)[0])
+
+    assert short(1.343, 0.003, (1.37, 1.40), syst=0.001) == "differs by -2.0 % (9 σ)"
+    assert short(2.886, 0.029, (3.0, 3.0), syst=0.11) == "within error (1.0 σ)"
+    assert short(0.628, 0.002, (0.63, 0.63), syst=0.0023) == "within the systematic error"
+    assert short(0.59, 0.002, (0.58, 0.62)) == "within the paper's range"
+    assert short(0.087, 0.001, None) == "shape compared"
+    assert short(-0.184, 0.047, (0.0, 0.0), syst=0.02) == "differs by -0.184 (4 σ)"
+    assert short(float("nan"), 0.1, (1.0, 1.0)) == "not measured"
+    assert overview.short_verdict(None) == "–"
+    assert overview.verdict_kind("differs by -2.0 % (8 σ with stat and syst)") == "differs"
+    assert overview.verdict_kind("within error (1.0 σ)") == "within error"
+
+
+def test_a_headlines_case_drops_what_every_case_of_its_scene_shares():
+    cases = ["mix~a/mdot~20", "mix~a/mdot~33"]
+    assert overview.case_label("mix~a/mdot~33", cases) == "mdot~33"
+    assert overview.case_label("sweep", cases) == "sweep"
+    assert overview.case_label("W~60/phi~0.61", ["W~60/phi~0.61"]) == "W~60/phi~0.61"   # the only case
+
+
+def test_the_headline_table_has_one_row_per_headline_of_each_summary(records, page):
+    html, tables = page
+    rows = headline_table(tables)["rows"]
+    assert rows[0] == ["scene", "quantity", "case", "ours ± stat ± syst", "paper", "verdict"]
+    expected = [(s["scene"], c) for s in records for c in overview.headlines(s)]
+    assert len(rows) - 1 == len(expected)
+    assert {s["scene"] for s in records if s["checks"]} == {scene for scene, _ in expected}
+    for row, (scene, c) in zip(rows[1:], expected):
+        assert row[0] == scene
+        assert row[1] == overview.cut(c["quantity"], overview.QUANTITY_CHARS)
+        assert c["quantity"].startswith(row[1].rstrip("…"))
+        assert row[3].split(" ± ")[0] in overview._fmt(c["ours"], c["error"], c.get("syst"))
+        assert row[5] == overview.short_verdict(c["verdict"]) and len(row[5]) <= 30
+        assert c["verdict"].startswith(row[5].split(" (")[0])
+    # every check is counted, and is in the validation section
+    n = sum(len(s["checks"]) for s in records)
+    assert f"All {n} checks (" in html and "the scene's checks.csv" in html
+
+
+def test_the_cases_and_the_headlines_of_the_validation_campaign_make_one_short_page(records, page):
+    """One line a row: the two tables hold the cases and the headlines, and nothing else long."""
+    html, tables = page
+    cases, heads = cases_table(tables), headline_table(tables)
+    assert "glance" in cases["class"] and "glance" in heads["class"]
+    assert len(cases["rows"]) - 1 == sum(len(s["cases"]) for s in records)
+    assert len(heads["rows"]) - 1 <= overview.HEADLINES_PER_SCENE * len(records)
+    # no cell longer than a status word and a short reason (the full reasons ran to 366 characters)
+    widest = max(len(cell) for t in (cases, heads) for row in t["rows"] for cell in row)
+    assert widest <= len("no_steady_state: ") + overview.SHORT_REASON + 1, widest
+    assert len(tables) == 2

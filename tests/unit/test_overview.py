@@ -55,10 +55,11 @@ def test_checks_sit_beside_the_papers_values():
     html = render(overview_rst(SUMMARIES, "demo"))
     assert "1.1971 ± 0.0063" in html                     # two significant digits of the error
     assert "1.171 ± 0.088 ± 0.263" in html               # and the systematic error where there is one
-    assert "1.37–1.40 (fig. 5(c))" in html
-    assert "differs by -13 %" in html
+    assert ">1.37–1.40<" in html or "<p>1.37–1.40</p>" in html   # the paper's source is in the record
+    assert "differs by -13 %" in html and "within the systematic error" in html
     assert "beta: no headline number could be measured in this campaign." in html
-    assert "alpha (rung demo): Doe et al. (2020)" in html
+    assert "Papers: alpha: Doe et al. (2020); beta: Roe (2013)." in html
+    assert "All 2 checks (alpha 2): 1 differs, 1 within the systematic error" in html
 
 
 def test_the_validation_rung_has_no_caveat(tmp_path):

@@ -1,5 +1,5 @@
 """The report's front page: the campaign as run, how each case ended, its headline numbers
-beside the papers' values, and the CPU-hours spent.
+beside the papers' values, and the CPU-hours spent, read at a glance.
 
 Built from the scenes' records (``<validation dir>/<scene>/summary.json``, written by
 :func:`granflow.validation.write_record` for the campaign's own rung: every case with its
@@ -8,11 +8,25 @@ with its statistical error and the verdict). The page is reStructuredText, which
 Snakemake's report renders first (the Snakefile's global ``report:`` statement), before the
 per-scene sections. Snakemake passes that text through Jinja first; the page is wrapped in
 a ``raw`` block so that a brace in a reason or a source cannot be read as a template.
+
+The page is read at a glance: at 1400 px the cases and the headlines fit in one window.
+Every case is one line: scene, case, its status with a reason of a few words
+(:func:`short_reason`: the status word, and for a case that is not steady the first clause of
+its reason cut at a word boundary to :data:`SHORT_REASON` characters), particles and CPU-hours.
+The full reason stays in the scene's record and its table (``status_reason`` of
+``table.csv``, the scene's section of the report). The headlines are one table, a line each:
+scene, quantity, case, ours ± stat ± syst, the paper's value and the verdict in a few words
+(:func:`short_verdict`); a scene's headlines are picked from its record's checks by
+:func:`headlines` (one a quantity, those compared with a number of the paper first, at most
+:data:`HEADLINES_PER_SCENE`), and every check, with its source, note and full verdict, stays in
+the validation section (the scene's ``checks.csv``); the page counts them. The rules here read
+only the records: they never name a scene.
 """
 from __future__ import annotations
 
 import json
 import math
+import re
 from collections import Counter
 from pathlib import Path
 
@@ -27,9 +41,22 @@ _RST_SPECIAL = "\\`*_|[]<>"
 #: for images; the same for a long description: this page's title sat 5,200 px above the
 #: window). The page's own style aligns that box to the top; it lives in this page's HTML
 #: only, so the other pages of the report keep Snakemake's layout.
-TOP_ALIGN = [".. raw:: html", "",
-             "   <style>.items-center.justify-center.overflow-auto { align-items: flex-start !important; }</style>",
-             ""]
+TOP_ALIGN = (".items-center.justify-center.overflow-auto { align-items: flex-start !important; "
+             "justify-content: flex-start !important; }")
+#: read at a glance: Snakemake sets the page in a column 32 rem wide beside the rule graph, where a
+#: table of 5 columns wraps every cell. The page's column takes the width the menu (a fifth of the
+#: window) and the rule graph leave at 1400 px (54 rem), its titles are smaller and its tables
+#: (class ``glance``) keep each row on one line. The box is also aligned left: a page wider than
+#: the window overflows to the right, where it can be scrolled to, not under the menu.
+GLANCE = (".prose.max-w-lg { max-width: 54rem; } "
+          ".prose h1 { font-size: 1.3em; margin: 0.7em 0 0.2em; } "
+          ".prose h1.title { font-size: 1.6em; margin: 0 0 0.3em; } "
+          ".prose p { font-size: 0.8rem; line-height: 1.45; margin: 0.3em 0; } "
+          ".prose table.glance { font-size: 0.75rem; line-height: 1.35; width: auto; margin: 0.2em 0 0.6em; } "
+          ".prose table.glance caption { text-align: left; font-size: 0.75rem; padding-bottom: 0.2em; "
+          "white-space: nowrap; } "
+          ".prose table.glance th, .prose table.glance td { padding: 0.12em 0.65em 0.12em 0; white-space: nowrap; }")
+PAGE_STYLE = [".. raw:: html", "", f"   <style>{TOP_ALIGN} {GLANCE}</style>", ""]
 
 
 def rst_text(value) -> str:
@@ -39,13 +66,93 @@ def rst_text(value) -> str:
     return out or "–"
 
 
+#: a case's short reason: the first clause of its reason cut to at most this many characters
+SHORT_REASON = 40
+#: the status of a case that ran as it should (steady, then averaged): its status word says it all
+STEADY = "steady"
+#: where a reason's first clause ends: ``;`` ``:`` ``,`` or ``.`` before a space, a space before
+#: ``(``, or a dash between spaces (a comma or point inside a number such as 27,727 or 0.3 does not)
+_CLAUSE_END = re.compile(r"[;:,.](?=\s)|\s(?=\()|\s[–—-]\s")
+
+
+def cut(text, limit: int) -> str:
+    """``text`` on one line, cut at a word boundary to at most ``limit`` characters with an ellipsis."""
+    text = " ".join(str(text).split())
+    if len(text) <= limit:
+        return text
+    space = text.rfind(" ", 0, limit + 1)
+    head = text[:space] if space > 0 else text[:limit]
+    return head.rstrip(" ,;:.([–—-") + "…"
+
+
+def first_clause(text) -> str:
+    """The words of ``text`` up to its first clause boundary (:data:`_CLAUSE_END`)."""
+    text = " ".join(str(text or "").split())
+    end = _CLAUSE_END.search(text)
+    return text[:end.start()].strip() if end else text
+
+
+def short_reason(status, reason) -> str:
+    """How a case ended in a few words: ``steady``, or the status word and the first clause of
+    its reason cut to :data:`SHORT_REASON` characters, e.g. ``jammed: wall friction holds``."""
+    status = str(status or "unknown")
+    clause = cut(first_clause(reason), SHORT_REASON)
+    return status if status == STEADY or not clause else f"{status}: {clause}"
+
+
+#: at most this many of a scene's checks on the front page (:func:`headlines`); its record has them all
+HEADLINES_PER_SCENE = 3
+#: a headline's quantity and the paper's value, cut at a word boundary to these many characters
+QUANTITY_CHARS = 26
+PAPER_CHARS = 22
+
+
+def headlines(summary: dict) -> list[dict]:
+    """A scene's headline numbers on the front page, by rule from its record's checks, in the
+    scene's order: one check per quantity (the first compared with a number of the paper, else the
+    first), quantities compared with a number before those compared in words, at most
+    :data:`HEADLINES_PER_SCENE`."""
+    first: dict[str, dict] = {}
+    for c in summary.get("checks", []):
+        q = c.get("quantity", "")
+        if q not in first or (first[q].get("paper_range") is None and c.get("paper_range") is not None):
+            first[q] = c
+    return sorted(first.values(), key=lambda c: c.get("paper_range") is None)[:HEADLINES_PER_SCENE]
+
+
+def case_label(case: str, cases: list[str]) -> str:
+    """A case as the headlines name it: without the parts of its directory that every case of its
+    scene shares (``mix~a/mdot~20`` beside ``mix~a/mdot~33``: ``mdot~20``); whole when it is the
+    scene's only case or nothing would be left."""
+    parts = str(case).split("/")
+    shared = set.intersection(*(set(str(c).split("/")) for c in cases)) if len(cases) > 1 else set()
+    return "/".join(p for p in parts if p not in shared) or str(case)
+
+
+def short_verdict(verdict) -> str:
+    """A check's verdict (:func:`granflow.validation.verdict`) in a few words: up to its first
+    parenthesis, with the number of standard errors where it gives them, e.g.
+    ``differs by -2.0 % (8 σ)``."""
+    text = " ".join(str(verdict or "").split())
+    sigmas = re.search(r"\(([0-9.]+ σ)", text)
+    words = text.split(" (")[0]
+    return (f"{words} ({sigmas.group(1)})" if sigmas else words) or "–"
+
+
+def verdict_kind(verdict) -> str:
+    """What kind of verdict, without its numbers: ``within error``, ``differs``, ``shape compared``..."""
+    return re.split(r" \(| by ", " ".join(str(verdict or "").split()))[0] or "no verdict"
+
+
 def _hours(x) -> str:
     return f"{x:.2f}" if isinstance(x, (int, float)) and math.isfinite(x) else "–"
 
 
-def _table(title: str, header: list[str], rows: list[list[str]], widths: list[int]) -> list[str]:
+def _table(title: str, header: list[str], rows: list[list[str]], widths: list[int] | None = None) -> list[str]:
+    """A list-table; without ``widths`` its columns take their contents' widths, one line a row."""
     out = [f".. list-table:: {rst_text(title)}", "   :header-rows: 1",
-           "   :widths: " + " ".join(str(w) for w in widths), ""]
+           "   :widths: " + (" ".join(str(w) for w in widths) if widths else "auto"),
+           *([] if widths else ["   :class: glance"]), ""]
     for row in [header, *rows]:
         out.append(f"   * - {rst_text(row[0])}")
         out.extend(f"     - {rst_text(cell)}" for cell in row[1:])
@@ -59,38 +166,51 @@ def overview_rst(summaries: list[dict], rung: str) -> str:
                 if isinstance(c.get("cpu_hours"), (int, float)) and math.isfinite(c["cpu_hours"]))
     statuses = Counter(c.get("status") or "unknown" for _, c in cases)
     title = f"granflow campaign at rung {rung}"
-    lines = ["{% raw %}", *TOP_ALIGN, title, "=" * len(title), ""]
+    lines = ["{% raw %}", *PAGE_STYLE, title, "=" * len(title), ""]
     lines += [rst_text(
         f"What ran: {len(summaries)} scene(s), {len(cases)} case(s), {hours:.2f} CPU-hours of LAMMPS "
         f"(all ranks, user + system). How the cases ended: "
         + ", ".join(f"{n} {s}" for s, n in sorted(statuses.items())) + "."), ""]
     if rung != "validation":
         lines += [rst_text(
-            f"Every number on this page is from rung {rung}, whose cases are smaller, shorter or softer "
-            "than the papers': a difference from the paper here is not a verdict on granflow. The committed "
-            "validation record (section validation) compares the validation rung with the papers."), ""]
+            f"Rung {rung}: its cases are smaller, shorter or softer than the papers', so a difference from a "
+            "paper is not a verdict on granflow; section validation holds the validation rung's record."), ""]
     lines += ["Cases", "-----", ""]
-    rows = [[scene, c.get("dir", ""), c.get("status", ""), c.get("reason", ""),
+    rows = [[scene, c.get("dir", ""), short_reason(c.get("status"), c.get("reason")),
              f"{c['particles']:,}" if isinstance(c.get("particles"), int) else "–", _hours(c.get("cpu_hours"))]
             for scene, c in cases]
-    lines += _table(f"Each case of the campaign (rung {rung})",
-                    ["scene", "case", "status", "reason", "particles", "CPU-h"], rows, [8, 12, 10, 50, 8, 6])
+    lines += _table(f"Rung {rung}; each reason in full: the scene's table (status_reason)",
+                    ["scene", "case", "status: reason", "particles", "CPU-h"], rows)
     lines += ["Headline numbers against the papers", "-----------------------------------", ""]
+    rows, counts, verdicts, silent = [], [], Counter(), []
     for s in summaries:
         checks = s.get("checks", [])
         if not checks:
-            why = s.get("note") or "no headline number could be measured in this campaign."
-            lines += [rst_text(f"{s['scene']}: {why}"), ""]
+            silent.append(rst_text(f"{s['scene']}: " + (s.get("note") or "no headline number could be "
+                                                          "measured in this campaign.")))
             continue
-        rows = []
-        for c in checks:
+        counts.append(f"{s['scene']} {len(checks)}")
+        verdicts.update(verdict_kind(c.get("verdict")) for c in checks)
+        for c in headlines(s):
             unit = f" {c['unit']}" if c.get("unit") else ""
-            rows.append([c["quantity"], f"{c['paper']}{unit} ({c['source']})",
+            rows.append([s["scene"], cut(c.get("quantity", ""), QUANTITY_CHARS),
+                         case_label(c.get("case", ""), [k.get("dir", "") for k in s.get("cases", [])]),
                          _fmt(c.get("ours"), c.get("error"), _finite_or_none(c.get("syst"))) + unit,
-                         c.get("case", ""), c.get("verdict", "")])
-        lines += _table(f"{s['scene']} (rung {s.get('rung', rung)}): {s.get('paper', '')}",
-                        ["quantity", "paper (source)", "ours ± stat (± syst)", "case", "verdict"], rows,
-                        [16, 34, 14, 12, 24])
+                         cut(f"{c.get('paper', '')}{unit}", PAPER_CHARS), short_verdict(c.get("verdict"))])
+    if rows:
+        lines += _table(f"Rung {rung}; at most {HEADLINES_PER_SCENE} a scene, one a quantity, those with a number "
+                        "of the paper first", ["scene", "quantity", "case", "ours ± stat ± syst", "paper", "verdict"],
+                        rows)
+        n = sum(verdicts.values())
+        lines += [rst_text(f"All {n} checks ({', '.join(counts)}): "
+                           + ", ".join(f"{k} {kind}" for kind, k in verdicts.most_common())
+                           + "; each with the paper's source, our note and the full verdict in the validation "
+                             "section (the scene's checks.csv)."), ""]
+    for line in silent:
+        lines += [line, ""]
+    papers = [f"{s['scene']}: {s['paper']}" for s in summaries if s.get("paper")]
+    if papers:
+        lines += [rst_text("Papers: " + "; ".join(papers) + "."), ""]
     lines += [rst_text("The scenes' sections follow: their tables, figures and provenance; the "
                        "validation section holds the committed record."), "", "{% endraw %}", ""]
     return "\n".join(lines)

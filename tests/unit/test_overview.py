@@ -19,7 +19,8 @@ SUMMARIES = [
                 {"quantity": "h_c exponent", "paper": "1", "source": "fig. 8", "ours": 1.171, "error": 0.088,
                  "syst": 0.263, "case": "sweep", "unit": "", "verdict": "within the systematic error"}]},
     {"scene": "beta", "rung": "demo", "paper": "Roe (2013)",
-     "cases": [{"dir": "R~4.5", "status": "completed", "reason": "fixed schedule", "particles": 8087,
+     "cases": [{"dir": "R~4.5", "status": "completed", "reason": "fixed schedule {{ not a template }}",
+                "particles": 8087,
                 "cpu_hours": 1.125},
                {"dir": "R~5.5", "status": "unstable", "reason": "lost atoms", "particles": None,
                 "cpu_hours": None}],
@@ -41,11 +42,12 @@ def test_page_lists_every_case_with_status_and_the_cpu_hours():
     assert "2 scene(s), 4 case(s), 1.88 CPU-hours" in text
     assert "How the cases ended: 1 completed, 1 no\\_steady\\_state, 1 steady, 1 unstable." in text
     html = render(text)
-    for cell in ("W~20/phi~0.58", "no_steady_state", "8,087", "1.12", "0.50", "lost atoms", "R~5.5"):
+    # one line per case: a steady case is its status word, another adds its reason's first clause
+    for cell in ("W~20/phi~0.58", "steady", "no_steady_state: drift *6.5 %* over the last 100", "8,087", "1.12",
+                 "0.50", "unstable: lost atoms", "R~5.5", "completed: fixed schedule {{ not a template }}"):
         assert f"<p>{cell}</p>" in html or f">{cell}<" in html, cell
-    # markup and template characters arrive as text
-    assert "drift *6.5 %* over the last 100" in html
-    assert "{{ not a template }}" in html
+    # the full reason of a steady case is in the scene's table, not here
+    assert "drift 0.7 %" not in html
     assert "rung demo" in html and "is not a verdict on granflow" in html
 
 
@@ -53,10 +55,11 @@ def test_checks_sit_beside_the_papers_values():
     html = render(overview_rst(SUMMARIES, "demo"))
     assert "1.1971 ± 0.0063" in html                     # two significant digits of the error
     assert "1.171 ± 0.088 ± 0.263" in html               # and the systematic error where there is one
-    assert "1.37–1.40 (fig. 5(c))" in html
-    assert "differs by -13 %" in html
+    assert ">1.37–1.40<" in html or "<p>1.37–1.40</p>" in html   # the paper's source is in the record
+    assert "differs by -13 %" in html and "within the systematic error" in html
     assert "beta: no headline number could be measured in this campaign." in html
-    assert "alpha (rung demo): Doe et al. (2020)" in html
+    assert "Papers: alpha: Doe et al. (2020); beta: Roe (2013)." in html
+    assert "All 2 checks (alpha 2): 1 differs, 1 within the systematic error" in html
 
 
 def test_the_validation_rung_has_no_caveat(tmp_path):

@@ -210,7 +210,8 @@ def _project_root(option_value: str | None) -> Path:
 
     if option_value is not None:
         return project_root(option_value, "--dir")
-    return project_root(Path.cwd(), "the working directory")
+    project_root(Path.cwd(), "the working directory")
+    return Path(".")  # messages then name its files from there
 
 
 def _shown(path: Path) -> str:
@@ -221,20 +222,19 @@ def _shown(path: Path) -> str:
 
 def _new_scene_next(name: str, root: Path) -> list[str]:
     """What to type after ``granflow new-scene NAME``, for the project root it wrote into."""
-    check = f"granflow check-scene {name}"
-    steps = [f"  {check:46s} the contract, the scene file, the smoke decks",
-             f"  {f'granflow render {name} --rung smoke --out /tmp/{name}':46s} its decks and params.json",
-             f"  {f'pytest tests/unit/test_scene_{name}.py':46s} its tests",
-             "  docs/adding-a-scene.md says what each file holds and what to change first"]
-    if root.resolve() == PROJECT_ROOT.resolve():
-        return [f"next (in {_shown(root)}):", *steps]
-    if (root / "src" / "granflow" / "__init__.py").is_file():
-        return [f"next, in {_shown(root)} with its own granflow (this one runs from {PROJECT_ROOT / 'src'}; "
-                f"set PYTHONPATH={root.resolve() / 'src'} or use its venv):", *steps]
     here = root.resolve() == Path.cwd().resolve()
-    return [f"next ({_shown(root)} holds no granflow code of its own: the scene runs once its files are in a "
-            f"checkout):", f"  {check + ('' if here else ' --dir ' + _shown(root)):46s} the contract, the scene "
-            f"file, the smoke decks", steps[-1]]
+    check = f"granflow check-scene {name}" + ("" if here else f" --dir {_shown(root)}")
+    steps = [f"  {check:50s} the contract, the scene file, the smoke decks",
+             f"  {f'granflow render {name} --rung smoke --out /tmp/{name}':50s} its decks and params.json",
+             f"  {f'pytest tests/unit/test_scene_{name}.py':50s} its tests"]
+    docs = "  docs/adding-a-scene.md says what each file holds and what to change first"
+    if root.resolve() == PROJECT_ROOT.resolve():
+        return ["next:", *steps, docs]
+    if (root / "src" / "granflow" / "registry.py").is_file():  # a checkout of its own
+        return [f"next, with the granflow of {_shown(root)} (this one runs from {PROJECT_ROOT / 'src'}; set "
+                f"PYTHONPATH={root.resolve() / 'src'} or use its venv):", *steps, docs]
+    return [f"next ({'this folder' if here else _shown(root)} holds no granflow code of its own: the scene runs "
+            f"once its files are in a checkout):", steps[0], docs]
 
 
 def cmd_new_scene(args) -> int:

@@ -13,9 +13,10 @@ Adding a scene means adding its package (with ``SCENE``), its scene file
 nothing else. Packages are found by :mod:`pkgutil`, so there is no list to edit.
 
 The contract: what a scene must give is :data:`REQUIRED`, checked when its package is
-found (:func:`missing`); a package that fails the check (or does not import) is refused by
-name with what it lacks (:class:`SceneError`, exit 2 from any command that needs it) while
-the other scenes keep working. What it may give is :data:`OPTIONAL`: the generic layers ask
+found (:func:`check_package`, every problem of :func:`missing`); a package that fails the check
+(or does not import) is refused by name with what it lacks (:class:`SceneError`, exit 2 from any
+command that needs it) while the other scenes keep working. ``granflow check-scene`` runs the same
+check on one package, anywhere (:func:`package_at`). What it may give is :data:`OPTIONAL`: the generic layers ask
 :meth:`Scene.gives` and skip what a scene does not give. Everything else has a default
 (:data:`DEFAULTED`).
 """
@@ -649,4 +650,5 @@ def finite(value) -> float:
 
 
 __all__ = ["Scene", "SweepAxis", "FigureSpec", "Knob", "Stage", "Workload", "SnapshotView", "SceneError",
-           "REQUIRED", "OPTIONAL", "DEFAULTED", "missing", "PackageCheck", "check_package", "package_at", "discover", "scenes", "names", "refused", "get", "finite"]
+           "REQUIRED", "OPTIONAL", "DEFAULTED", "missing", "PackageCheck", "check_package", "package_at", "discover",
+           "scenes", "names", "refused", "get", "finite"]

@@ -274,8 +274,9 @@ def cmd_check_scene(args) -> int:
               f"{DOCS_PAGE} says what each one is")
         return EXIT_BAD_INPUT
     where = "" if is_own(folder) else " in a checkout that holds it"
-    print(f"{name}: complete: it gives every part of granflow.registry.REQUIRED and its smoke rung renders; "
-          f"next{where}: granflow render {name} --rung smoke --out /tmp/{name}")
+    rung = next(f.rung for f in findings if f.kind == "ok")
+    print(f"{name}: complete: it gives every part of granflow.registry.REQUIRED and its decks render; "
+          f"next{where}: granflow render {name} --rung {rung} --out /tmp/{name}")
     return EXIT_OK
 
 
@@ -475,8 +476,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "           fails, or its smoke rung does not render\n"
                     "  note     a part of granflow.registry.OPTIONAL it does not give (the campaign runs without it\n"
                     "           and says what it skipped)\n"
-                    "  ok       its smoke rung renders its decks (into a temporary folder: nothing is written)\n\n"
-                    "Exit 0 when every required part is there and the smoke rung renders; 2 when something\n"
+                    "  ok       its smoke rung renders its decks (into a temporary folder: nothing is written);\n"
+                    "           when the scene refuses the file's case at smoke (too large, infeasible), that is\n"
+                    "           a note and the first rung that renders it is the ok line\n\n"
+                    "Exit 0 when every required part is there and the decks render; 2 when something\n"
                     "required is missing or broken. A package that is not this granflow's own (a PATH, or\n"
                     "another DIR) is imported for the check alone, its files read from its project's config/.",
         epilog="examples:\n"

@@ -5,7 +5,8 @@ runs on every package): each part of :data:`~granflow.registry.REQUIRED` the pac
 of :data:`~granflow.registry.OPTIONAL` it does not give (a note: the campaign runs without it).
 Then what discovery does not check: the schema is a JSON schema and the scene file meets it
 (with the scene's own :meth:`~granflow.registry.Scene.check`), and the smoke rung renders its
-decks (:func:`granflow.deck.render_case`, into a temporary folder).
+decks (:func:`granflow.deck.render_case`, into a temporary folder; when the scene refuses the
+file's case at smoke, the first rung that renders it).
 
 A package is found by its name (``src/granflow/scenes/<name>`` of a project root) or by the
 path of its folder; one that is not the running granflow's own is imported for the check alone
@@ -24,7 +25,7 @@ from .config import Validator, check_rung, load_yaml, validate_scene
 from .deck import STAGES, render_case
 from .yamlio import ConfigError
 
-#: the rung whose decks are rendered
+#: the rung whose decks are rendered (the others only when the scene refuses the file's case there)
 SMOKE = "smoke"
 #: the page that explains the contract and the two commands
 DOCS_PAGE = "docs/adding-a-scene.md"
@@ -37,6 +38,8 @@ class Finding:
 
     kind: str
     text: str
+    #: the rung an ``ok`` line rendered
+    rung: str = ""
 
     @property
     def required(self) -> bool:
@@ -96,9 +99,9 @@ def check_scene(folder: Path, config_dir: Path) -> list[Finding]:
             return found
         scene = _scene_file(checked.scene, name, config_dir, found)
         if scene is None or found:
-            found.append(Finding("note", f"{SMOKE} rung: not rendered until the required parts are there"))
+            found.append(Finding("note", "decks: not rendered until the required parts are there"))
         else:
-            found.append(_smoke(checked.scene, scene))
+            found.extend(_render(checked.scene, scene))
         for hook, meaning in registry.OPTIONAL.items():
             if not checked.scene.gives(hook):
                 found.append(Finding("note", f"gives no {hook}: {meaning}"))
@@ -128,17 +131,35 @@ def _scene_file(declared: registry.Scene, name: str, config_dir: Path, found: li
     return None
 
 
-def _smoke(declared: registry.Scene, scene: dict) -> Finding:
-    """Whether the smoke rung renders its decks (into a temporary folder, removed afterwards)."""
+def _render(declared: registry.Scene, scene: dict) -> list[Finding]:
+    """Whether the decks render, into a temporary folder removed afterwards: at the smoke rung, with
+    the scene file's case. A case the scene refuses there (a ``ValueError``: its preflight or its own
+    check, as :func:`granflow.config.check_size` takes it: too large, infeasible at that size) is a
+    note, and the file's other rungs are tried in turn, as ``granflow check-config`` does; the package
+    is broken when no rung renders, when it has no smoke rung, or when rendering fails otherwise."""
     try:
         check_rung(scene, SMOKE)
-        with tempfile.TemporaryDirectory(prefix="check-scene-") as out:
-            record = render_case(scene, SMOKE, out, declared=declared)
-            decks = sorted(Path(out).glob("*.lmp"), key=lambda p: (STAGES + (p.stem,)).index(p.stem))
-    except Exception as exc:  # noqa: BLE001 - whatever stops the rendering is the finding
-        return Finding("broken", f"{SMOKE} rung does not render: {type(exc).__name__}: {_first_line(exc)}")
-    return Finding("ok", f"{SMOKE} rung renders {', '.join(p.name for p in decks)} and params.json "
-                         f"({declared.describe(record)}, dt {record.get('dt', float('nan')):.4g})")
+    except ConfigError as exc:
+        return [Finding("broken", f"{SMOKE} rung: {exc}")]
+    refused = []
+    for rung in [SMOKE, *(r for r in scene["rungs"] if r != SMOKE)]:
+        try:
+            with tempfile.TemporaryDirectory(prefix="check-scene-") as out:
+                record = render_case(scene, rung, out, declared=declared)
+                decks = sorted(Path(out).glob("*.lmp"),
+                               key=lambda p: (STAGES.index(p.stem) if p.stem in STAGES else len(STAGES), p.stem))
+        except ValueError as exc:  # the scene refuses the case at this rung
+            refused.append(Finding("note", f"{rung} rung refuses the scene file's case ({_error(exc)})"))
+            continue
+        except Exception as exc:  # noqa: BLE001 - whatever else stops the rendering is the finding
+            return [*refused, Finding("broken", f"{rung} rung does not render: {_error(exc)}")]
+        return [*refused, Finding("ok", f"{rung} rung renders {', '.join(p.name for p in decks)} and params.json "
+                                        f"({declared.describe(record)})", rung)]
+    return [Finding("broken", f"no rung renders the scene file's case: {f.text}") for f in refused]
+
+
+def _error(exc: Exception) -> str:
+    return f"{type(exc).__name__}: {_first_line(exc)}"
 
 
 def _first_line(exc: Exception) -> str:

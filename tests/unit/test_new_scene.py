@@ -182,7 +182,7 @@ def test_check_scene_names_every_required_part_a_package_lacks(project, capsys):
     lacks = [line for line in lines if line.startswith("  lacks")]
     assert lacks == ["  lacks   analyse() (a finished case's tables and scalars)",
                      f"  lacks   schema ({project / 'config' / 'schema' / 'bed.schema.yaml'}: no such file)"], lines
-    assert "  note    smoke rung: not rendered until the required parts are there" in lines
+    assert "  note    decks: not rendered until the required parts are there" in lines
     assert lines[-1].startswith("bed: incomplete: 2 required parts missing or broken (exit 2)")
 
 
@@ -208,14 +208,21 @@ def test_check_scene_of_a_package_that_does_not_import(project, capsys):
            "'granflow.no_such_module')" in out
 
 
-def test_check_scene_of_a_shipped_scene_and_of_the_tests_minimal_scene(monkeypatch, capsys):
-    """A registered scene by its name: complete, gives every optional part. The tests' minimal scene by its
-    path (outside any scenes/ folder, so its files are looked for in the working directory's config/):
-    its deck template, schema and scene file are not beside it."""
+def test_check_scene_of_shipped_scenes_and_of_the_tests_minimal_scene(monkeypatch, capsys):
+    """Registered scenes by their names: complete, every optional part given. The heap's file asks for a
+    feed rate its smoke rung cannot deliver: a note, and the demo rung renders instead (as check-config
+    takes it). The tests' minimal scene by its path (outside any scenes/ folder, so its files are looked
+    for in the working directory's config/): its deck template, schema and scene file are not beside it."""
     monkeypatch.chdir(ROOT)
     assert main(["check-scene", "chute"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert [line.split()[0] for line in lines[1:-1]] == ["ok"], lines
+    assert lines[-1].endswith("next: granflow render chute --rung smoke --out /tmp/chute")
+    assert main(["check-scene", "heap"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].startswith("  note    smoke rung refuses the scene file's case (PreflightError: feed rate"), lines
+    assert lines[2].startswith("  ok      demo rung renders init.lmp, flow.lmp, average.lmp and params.json"), lines
+    assert lines[-1].endswith("next: granflow render heap --rung demo --out /tmp/heap")
     assert main(["check-scene", "tests/data/minimal_scene"]) == EXIT_BAD_INPUT
     lacks = [line.split()[1] for line in capsys.readouterr().out.splitlines() if line.startswith("  lacks")]
     assert lacks == ["schema", "scene", "deck"]

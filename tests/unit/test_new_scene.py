@@ -137,7 +137,7 @@ def test_an_existing_file_is_never_overwritten(project, capsys, existing):
     before = tree(project)
     assert new_scene(project) == EXIT_BAD_INPUT
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and f"{existing} exists under {project} and new-scene never overwrites a file" in err
+    assert err.count("\n") == 1 and f"{existing} exists in {project.resolve()} and new-scene never overwrites a file" in err
     assert tree(project) == before
 
 

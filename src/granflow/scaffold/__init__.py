@@ -125,7 +125,7 @@ def write_scene(name: str, root: str | Path, registered: tuple[str, ...] = ()) -
     there = [str(p) for p in [package, *map(Path, files)] if (root / p).exists() or (root / p).is_symlink()]
     if there:
         raise ConfigError(f"NAME = {name!r} is not allowed here: {', '.join(there)} exist{'s' * (len(there) == 1)} "
-                          f"under {root} and new-scene never overwrites a file: allowed a name none of whose "
+                          f"in {root.resolve()} and new-scene never overwrites a file: allowed a name none of whose "
                           f"files exist (move them away, or choose another name)")
     tmp = Path(tempfile.mkdtemp(prefix=".new-scene-", dir=root))
     placed, made = [], []

@@ -22,6 +22,11 @@ Plan the campaign at the study rung: particles, CPU-hours, memory, ranks, runtim
 
     granflow plan --rung study
 
+Write a new scene from granflow's skeleton, then check it against the scene contract::
+
+    granflow new-scene drum
+    granflow check-scene drum
+
 Coarse-grain any LAMMPS dump (see ``granflow cg --help``)::
 
     granflow cg dump.bin --coords rz --axis 0.05,0.05 --width 0.002 --spacing 0.002 --out cg
@@ -199,6 +204,82 @@ def cmd_scenes(args) -> int:
     return 0
 
 
+def _project_root(option_value: str | None) -> Path:
+    """``--dir`` if given, else the working directory: a granflow project root, or a refusal."""
+    from .scaffold import project_root
+
+    if option_value is not None:
+        return project_root(option_value, "--dir")
+    project_root(Path.cwd(), "the working directory")
+    return Path(".")  # messages then name its files from there
+
+
+def _shown(path: Path) -> str:
+    """``path`` from the working directory when it lies below it, else absolute."""
+    path = Path(path).absolute()
+    return str(path.relative_to(Path.cwd())) if path.is_relative_to(Path.cwd()) else str(path)
+
+
+def _new_scene_next(name: str, root: Path) -> list[str]:
+    """What to type after ``granflow new-scene NAME``, for the project root it wrote into."""
+    here = root.resolve() == Path.cwd().resolve()
+    check = f"granflow check-scene {name}" + ("" if here else f" --dir {_shown(root)}")
+    steps = [f"  {check:50s} the contract, the scene file, the smoke decks",
+             f"  {f'granflow render {name} --rung smoke --out /tmp/{name}':50s} its decks and params.json",
+             f"  {f'pytest tests/unit/test_scene_{name}.py':50s} its tests"]
+    docs = "  docs/adding-a-scene.md says what each file holds and what to change first"
+    if root.resolve() == PROJECT_ROOT.resolve():
+        return ["next:", *steps, docs]
+    if (root / "src" / "granflow" / "registry.py").is_file():  # a checkout of its own
+        return [f"next, with the granflow of {_shown(root)} (this one runs from {PROJECT_ROOT / 'src'}; set "
+                f"PYTHONPATH={root.resolve() / 'src'} or use its venv):", *steps, docs]
+    return [f"next ({'this folder' if here else _shown(root)} holds no granflow code of its own: the scene runs "
+            f"once its files are in a checkout):", steps[0], docs]
+
+
+def cmd_new_scene(args) -> int:
+    """Write a new scene's package, scene file, schema and tests (:func:`granflow.scaffold.write_scene`)."""
+    from .scaffold import write_scene
+
+    root = _project_root(args.dir)
+    name = args.name
+    written = write_scene(name, root, registry.names() + tuple(registry.refused()))
+    package = [p for p in written if p.parts[:4] == ("src", "granflow", "scenes", name)]
+    print(f"wrote the scene {name} under {_shown(root)} ({len(written)} files, moved into place when complete):")
+    print(f"  {package[0].parent}/  {', '.join(p.name for p in package)}")
+    for path in written:
+        if path not in package:
+            print(f"  {path}")
+    print("\n".join(_new_scene_next(name, root)))
+    return 0
+
+
+def cmd_check_scene(args) -> int:
+    """A scene package against the contract, one line per finding (:mod:`granflow.scene_check`); exit 2
+    when a required part is missing or broken."""
+    from .scene_check import DOCS_PAGE, check_scene, is_own, locate
+
+    by_name = "/" not in args.target and args.target not in (".", "..")
+    root = _project_root(args.dir) if (args.dir is not None or by_name) else None
+    folder, config_dir = locate(args.target, root)
+    name = folder.name
+    findings = check_scene(folder, config_dir)
+    print(f"check-scene {name}: the package {_shown(folder)}, its files in {_shown(config_dir)}/, "
+          f"against granflow.registry.REQUIRED")
+    for finding in findings:
+        print(finding.line())
+    bad = [f for f in findings if f.required]
+    if bad:
+        print(f"{name}: incomplete: {len(bad)} required part{'s' * (len(bad) > 1)} missing or broken (exit 2); "
+              f"{DOCS_PAGE} says what each one is")
+        return EXIT_BAD_INPUT
+    where = "" if is_own(folder) else " in a checkout that holds it"
+    rung = next(f.rung for f in findings if f.kind == "ok")
+    print(f"{name}: complete: it gives every part of granflow.registry.REQUIRED and its decks render; "
+          f"next{where}: granflow render {name} --rung {rung} --out /tmp/{name}")
+    return EXIT_OK
+
+
 def _check_case_dir(case_dir: str) -> Path:
     """A rendered case: a directory with a granflow params.json and its decks, writable."""
     path = Path(case_dir)
@@ -356,6 +437,63 @@ def build_parser() -> argparse.ArgumentParser:
     _add_set(p)
     _add_limits(p)
     p.set_defaults(func=cmd_plan)
+
+    p = sub.add_parser(
+        "new-scene", help="write a new scene's package, scene file, schema and tests from granflow's skeleton",
+        description="Write the skeleton of a new scene NAME into the project root DIR (default: the working\n"
+                    "directory), every file into a temporary folder first, moved into place when all are written:\n\n"
+                    "  src/granflow/scenes/NAME/        __init__.py (SCENE), scene.py (the Scene subclass: name,\n"
+                    "                                   summary, sweep, figures, parameters(), analyse(), figure_cases()),\n"
+                    "                                   parameters.py (the deck numbers), NAME.lmp.j2 (the deck\n"
+                    "                                   template), pipeline.py (the analysis), figures.py, captions.yaml\n"
+                    "  config/scenes/NAME.yaml          the scene file, every key commented\n"
+                    "  config/schema/NAME.schema.yaml   its schema: type, bounds, default, description of every key\n"
+                    "  tests/unit/test_scene_NAME.py    its tests: the contract, the bed LAMMPS builds (-skiprun),\n"
+                    "                                   the analysis on a known packing\n\n"
+                    "The skeleton is a whole scene that gives what granflow.registry.REQUIRED asks and nothing\n"
+                    "optional (like tests/data/minimal_scene): a bed of spheres rained onto a floor and settled,\n"
+                    "its packing fraction against the swept friction. It renders, runs and is analysed as it is;\n"
+                    "change it into your scene from there.",
+        epilog="NAME: a lower-case Python identifier (a-z, 0-9, _; starting with a letter), not a Python\n"
+               "keyword, not an existing scene. A bad NAME, or any of the files already there, is refused in\n"
+               "one line (exit 2) and nothing is written: an existing file is never overwritten.\n\n"
+               "next steps:\n"
+               "  granflow check-scene NAME                        the contract, the scene file, the smoke decks\n"
+               "  granflow render NAME --rung smoke --out /tmp/NAME\n"
+               "  pytest tests/unit/test_scene_NAME.py\n"
+               "  docs/adding-a-scene.md                           what each part is, how a scene was added",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("name", metavar="NAME", help="the new scene's name, e.g. drum")
+    p.add_argument("--dir", metavar="DIR", help="the project root to write into (default: the working directory)")
+    p.set_defaults(func=cmd_new_scene)
+
+    p = sub.add_parser(
+        "check-scene", help="what a scene package lacks of the scene contract, one line each",
+        description="Check the scene package NAME (src/granflow/scenes/NAME under DIR, default the working\n"
+                    "directory) or the package folder PATH against the scene contract, one line each:\n\n"
+                    "  lacks    a part of granflow.registry.REQUIRED it does not give (what discovery refuses it for)\n"
+                    "  broken   its schema (config/schema/NAME.schema.yaml) or scene file (config/scenes/NAME.yaml)\n"
+                    "           fails, or its smoke rung does not render\n"
+                    "  note     a part of granflow.registry.OPTIONAL it does not give (the campaign runs without it\n"
+                    "           and says what it skipped)\n"
+                    "  ok       its smoke rung renders its decks (into a temporary folder: nothing is written);\n"
+                    "           when the scene refuses the file's case at smoke (too large, infeasible), that is\n"
+                    "           a note and the first rung that renders it is the ok line\n\n"
+                    "Exit 0 when every required part is there and the decks render; 2 when something\n"
+                    "required is missing or broken. A package that is not this granflow's own (a PATH, or\n"
+                    "another DIR) is imported for the check alone, its files read from its project's config/.",
+        epilog="examples:\n"
+               "  granflow check-scene drum\n"
+               "  granflow check-scene ../other-checkout/src/granflow/scenes/drum\n\n"
+               "next steps: granflow render NAME --rung smoke --out /tmp/NAME; granflow scenes;\n"
+               "docs/adding-a-scene.md (the contract, part by part)",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("target", metavar="NAME|PATH",
+                   help="a scene's name, or the path of a scene package folder (with a /, e.g. ./mypkg)")
+    p.add_argument("--dir", metavar="DIR", help="the project root whose src/granflow/scenes and config/ hold the "
+                                               "scene (default: the working directory; for a PATH, the project "
+                                               "it lies in)")
+    p.set_defaults(func=cmd_check_scene)
 
     p = sub.add_parser("cg", help="coarse-grain any LAMMPS dump into continuum fields (CSV, JSON, VTK)",
                        description=cg_cli.DESCRIPTION, epilog=cg_cli.EPILOG,

@@ -200,10 +200,11 @@ def _format_error(err: jsonschema.ValidationError, source: str) -> str:
     return f"{source}: {key} = {err.instance!r}: {err.message}{tail}"
 
 
-def validate(data: dict, schema_name: str, source: str = "config") -> None:
-    """Validate ``data`` against a named schema; raise :class:`ConfigError` listing every problem."""
+def validate(data: dict, schema_name: str, source: str = "config", schema: dict | None = None) -> None:
+    """Validate ``data`` against a named schema (or ``schema`` itself); raise :class:`ConfigError`
+    listing every problem, one per line."""
     refuse_templating(data, source)
-    schema = load_schema(schema_name)
+    schema = load_schema(schema_name) if schema is None else schema
     validator = Validator(schema)
     errors = sorted(validator.iter_errors(data), key=lambda e: (list(map(str, e.absolute_path)), e.validator))
     # a non-finite number: one message ("not a finite number"), not also its range check's
@@ -219,16 +220,21 @@ def require(cond: bool, msg: str) -> None:
         raise ConfigError(msg)
 
 
-def validate_scene(scene: dict, source: str = "scene") -> dict:
-    """Schema plus cross-field checks of a scene file; returns it unchanged."""
+def validate_scene(scene: dict, source: str = "scene", declared: registry.Scene | None = None,
+                   schema: dict | None = None) -> dict:
+    """Schema plus cross-field checks of a scene file; returns it unchanged. ``declared`` and
+    ``schema``: the declaration and schema of a scene that is not registered (``granflow
+    check-scene`` on a package by its path), else the registry's and ``config/schema``'s."""
     name = scene.get("scene")
-    if name in registry.refused():
-        raise registry.SceneError(f"{source}: scene = {name!r}: {registry.refused()[name]}")
-    if name not in registry.names():
-        raise ConfigError(f"{source}: scene = {name!r} is not allowed: allowed one of "
-                          f"{', '.join(map(repr, registry.names()))}")
-    validate(scene, name, source)
-    registry.get(name).check(scene, source)
+    if declared is None:
+        if name in registry.refused():
+            raise registry.SceneError(f"{source}: scene = {name!r}: {registry.refused()[name]}")
+        if name not in registry.names():
+            raise ConfigError(f"{source}: scene = {name!r} is not allowed: allowed one of "
+                              f"{', '.join(map(repr, registry.names()))}")
+        declared = registry.get(name)
+    validate(scene, name, source, schema)
+    declared.check(scene, source)
     for rname, r in scene["rungs"].items():
         require(r["dump_interval"] <= r["t_average"],
                f"{source}: rungs.{rname}.dump_interval = {r['dump_interval']}: allowed <= t_average = {r['t_average']}")

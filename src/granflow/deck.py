@@ -43,9 +43,13 @@ def _number(value) -> float | int:
     return value
 
 
-def environment() -> jinja2.Environment:
+def environment(package_dir: Path | None = None) -> jinja2.Environment:
+    """The decks' Jinja2 environment: the shared includes, then ``package_dir`` (a scene package
+    outside :mod:`granflow.scenes`, checked by ``granflow check-scene``), then every scene package."""
+    first = [str(package_dir)] if package_dir is not None else []
     return jinja2.Environment(
-        loader=jinja2.FileSystemLoader([str(TEMPLATE_DIR)] + sorted(str(p) for p in SCENES_DIR.iterdir() if p.is_dir())),
+        loader=jinja2.FileSystemLoader([str(TEMPLATE_DIR)] + first
+                                       + sorted(str(p) for p in SCENES_DIR.iterdir() if p.is_dir())),
         undefined=jinja2.StrictUndefined,
         trim_blocks=True,
         lstrip_blocks=True,
@@ -168,10 +172,12 @@ def time_step(rung: dict, model: ContactModel) -> float:
     return rung["dt_fraction"] * model.stiffest.t_c
 
 
-def scene_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tuple[list[Param], dict]:
-    """Deck numbers and template context of any scene (its registered declaration derives them),
-    with the scene's particle snapshot view if its effect ``snapshots`` names the rung."""
-    declared = registry.get(scene["scene"])
+def scene_parameters(scene: dict, rung_name: str, case: dict | None = None,
+                     declared: registry.Scene | None = None) -> tuple[list[Param], dict]:
+    """Deck numbers and template context of any scene (its registered declaration derives them,
+    or ``declared``, a scene not registered), with the scene's particle snapshot view if its effect
+    ``snapshots`` names the rung."""
+    declared = registry.get(scene["scene"]) if declared is None else declared
     params, context = declared.parameters(scene, rung_name, case)
     view = declared.snapshots_at(scene, rung_name)
     context["snapshot"] = view
@@ -179,16 +185,19 @@ def scene_parameters(scene: dict, rung_name: str, case: dict | None = None) -> t
     return params, context
 
 
-def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | None = None) -> dict:
+def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | None = None,
+                declared: registry.Scene | None = None) -> dict:
     """Write one deck per stage (the scene's ``stages``, default ``init``, ``flow``, ``average``),
     any data files the scene asks for, and ``params.json`` into ``outdir``.
 
     The template is ``<scene>.lmp.j2`` in the scene's package; ``context["data_files"]``
-    maps file names to functions that write them (e.g. an initial packing).
+    maps file names to functions that write them (e.g. an initial packing). ``declared`` is
+    the scene's declaration when it is not registered (a package checked by its path), else
+    the registry's.
 
     Returns the parameter record (also written to ``params.json``).
     """
-    params, context = scene_parameters(scene, rung_name, case)
+    params, context = scene_parameters(scene, rung_name, case, declared)
     record = context.pop("record")
     stages = context.pop("stages", STAGES)
     data_files = context.pop("data_files", {})
@@ -196,7 +205,7 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     outdir.mkdir(parents=True, exist_ok=True)
     for name, write in data_files.items():
         write(outdir / name)
-    env = environment()
+    env = environment(None if declared is None else declared.package_dir)
     template = env.get_template(f"{context['scene']}.lmp.j2")
     for stage in stages:
         text = template.render(params=params, stage=stage, **context)

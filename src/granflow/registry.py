@@ -13,9 +13,10 @@ Adding a scene means adding its package (with ``SCENE``), its scene file
 nothing else. Packages are found by :mod:`pkgutil`, so there is no list to edit.
 
 The contract: what a scene must give is :data:`REQUIRED`, checked when its package is
-found (:func:`missing`); a package that fails the check (or does not import) is refused by
-name with what it lacks (:class:`SceneError`, exit 2 from any command that needs it) while
-the other scenes keep working. What it may give is :data:`OPTIONAL`: the generic layers ask
+found (:func:`check_package`, every problem of :func:`missing`); a package that fails the check
+(or does not import) is refused by name with what it lacks (:class:`SceneError`, exit 2 from any
+command that needs it) while the other scenes keep working. ``granflow check-scene`` runs the same
+check on one package, anywhere (:func:`package_at`). What it may give is :data:`OPTIONAL`: the generic layers ask
 :meth:`Scene.gives` and skip what a scene does not give. Everything else has a default
 (:data:`DEFAULTED`).
 """
@@ -25,6 +26,9 @@ import importlib
 import math
 import pkgutil
 import re
+import sys
+import types
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -512,6 +516,73 @@ def missing(scene, package: str, config_dir: Path | None = None) -> list[str]:
 
 
 @dataclass(frozen=True)
+class PackageCheck:
+    """One scene package checked against the contract: its ``SCENE`` (None when the package does not
+    import or has no usable one) and every problem found, one phrase each (:func:`check_package`).
+
+    ``import_error`` says why the package does not import (then nothing else was checked);
+    ``lacks`` lists what it lacks of :data:`REQUIRED` (:func:`missing`), all of it, not the first.
+    """
+
+    scene: Scene | None
+    lacks: tuple[str, ...] = ()
+    import_error: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return not self.import_error and not self.lacks
+
+    @property
+    def refusal(self) -> str:
+        """Why discovery refuses the package (``''`` when it meets the contract)."""
+        return self.import_error or ("it lacks " + "; ".join(self.lacks) if self.lacks else "")
+
+
+def check_package(module: str, package: str, config_dir: Path | None = None) -> PackageCheck:
+    """Import the scene package ``module`` (its folder named ``package``) and check its ``SCENE``
+    (:func:`missing`, files looked for in ``config_dir``). A package that does not import, has no
+    ``SCENE`` or lacks a required part gives a :class:`PackageCheck` that says so, with every problem;
+    any error of the package's own code is caught and named (it refuses that package only)."""
+    try:
+        imported = importlib.import_module(module)
+    except Exception as exc:  # noqa: BLE001 - any error of a scene's code refuses that scene only
+        return PackageCheck(None, import_error=f"its package does not import ({type(exc).__name__}: {exc})")
+    scene = getattr(imported, "SCENE", None)
+    try:
+        lacks = missing(scene, package, config_dir)
+    except Exception as exc:  # noqa: BLE001 - e.g. a member that is not what its name says
+        lacks = [f"a SCENE that can be checked ({type(exc).__name__}: {exc})"]
+    return PackageCheck(scene if isinstance(scene, Scene) else None, tuple(lacks))
+
+
+#: the parent under which :func:`package_at` imports a scene package found by its path
+CHECKED_PARENT = "_granflow_checked_scene"
+
+
+@contextmanager
+def package_at(path: str | Path):
+    """Import the scene package folder ``path`` (anywhere, not only under :mod:`granflow.scenes`) for
+    the duration: yields its module name, ``_granflow_checked_scene.<folder name>``, for
+    :func:`check_package`. Its relative imports work as in place; afterwards its modules are
+    forgotten (another package of the same name can be checked next)."""
+    path = Path(path).resolve()
+    parent = types.ModuleType(CHECKED_PARENT)
+    parent.__path__ = [str(path.parent)]
+
+    def forget():
+        for name in [m for m in sys.modules if m == CHECKED_PARENT or m.startswith(CHECKED_PARENT + ".")]:
+            del sys.modules[name]
+
+    forget()
+    sys.modules[CHECKED_PARENT] = parent
+    importlib.invalidate_caches()
+    try:
+        yield f"{CHECKED_PARENT}.{path.name}"
+    finally:
+        forget()
+
+
+@dataclass(frozen=True)
 class Found:
     """The scene packages of one discovery: the usable ones by name, the refused ones with why."""
 
@@ -520,26 +591,18 @@ class Found:
 
 
 def discover(package: str = SCENES_PACKAGE, config_dir: Path | None = None) -> Found:
-    """Import every subpackage of ``package`` and check its ``SCENE`` (:func:`missing`). A package
+    """Import every subpackage of ``package`` and check its ``SCENE`` (:func:`check_package`). A package
     that does not import, has no ``SCENE`` or lacks a required part is refused with the reason;
     the others are found, by name (sorted)."""
     scenes, refused = {}, {}
     for info in sorted(pkgutil.iter_modules(importlib.import_module(package).__path__), key=lambda m: m.name):
         if not info.ispkg:
             continue
-        try:
-            module = importlib.import_module(f"{package}.{info.name}")
-        except Exception as exc:  # noqa: BLE001 - any error of a scene's code refuses that scene only
-            refused[info.name] = f"its package does not import ({type(exc).__name__}: {exc})"
-            continue
-        try:
-            lacks = missing(getattr(module, "SCENE", None), info.name, config_dir)
-        except Exception as exc:  # noqa: BLE001 - e.g. a member that is not what its name says
-            lacks = [f"a SCENE that can be checked ({type(exc).__name__}: {exc})"]
-        if lacks:
-            refused[info.name] = "it lacks " + "; ".join(lacks)
+        checked = check_package(f"{package}.{info.name}", info.name, config_dir)
+        if checked.ok:
+            scenes[info.name] = checked.scene
         else:
-            scenes[info.name] = module.SCENE
+            refused[info.name] = checked.refusal
     return Found(scenes, refused)
 
 
@@ -587,4 +650,5 @@ def finite(value) -> float:
 
 
 __all__ = ["Scene", "SweepAxis", "FigureSpec", "Knob", "Stage", "Workload", "SnapshotView", "SceneError",
-           "REQUIRED", "OPTIONAL", "DEFAULTED", "missing", "discover", "scenes", "names", "refused", "get", "finite"]
+           "REQUIRED", "OPTIONAL", "DEFAULTED", "missing", "PackageCheck", "check_package", "package_at", "discover",
+           "scenes", "names", "refused", "get", "finite"]

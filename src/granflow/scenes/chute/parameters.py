@@ -13,7 +13,6 @@ base; the flowing depth is measured by the analysis, not assumed.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 from granflow.config import ConfigError, check_rung
 from granflow.contact import Contact, build_contact_model, contact_time, sphere_mass
@@ -21,8 +20,6 @@ from granflow.deck import (STRESS_COLUMNS, Param, StepClock, _number, contact_la
                            rain_lattice, record_head, time_step)
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
-#: where the deck template lives (this package) and the shared includes
-PACKAGE_DIR = Path(__file__).resolve().parent
 STAGES = ("init", "flow", "average")
 
 

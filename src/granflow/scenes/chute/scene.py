@@ -24,29 +24,11 @@ class ChuteScene(Scene):
     summary = "steady flow down a rough inclined plane: stress ratio tan(theta), weight, Bagnold profile, regimes"
     paper = "Silbert, Ertas, Grest, Halsey, Levine & Plimpton (2001), Phys. Rev. E 64, 051302"
     sweep = (SweepAxis("theta_deg", "theta"),)
-    figures = {
-        "fig_profiles": FigureSpec(
-            figures.fig_profiles, "Silbert et al. 2001, figs. 3-5 (velocity, packing, temperature profiles)",
-            "Height profiles at each angle: downslope velocity :math:`u_x(z)` with the Bagnold fit "
-            ":math:`A[h^{3/2} - (h-z)^{3/2}]` over the bulk (dashed), volume fraction :math:`\\phi(z)` and "
-            "granular temperature :math:`T(z)`. The paper finds the Bagnold profile in the bulk, deviations "
-            "within a few d of the base and the surface, and :math:`\\phi` nearly uniform, lower at larger "
-            ":math:`\\theta`."),
-        "fig_stress": FigureSpec(
-            figures.fig_stress, "Silbert et al. 2001, section III (momentum balance)",
-            "Left: total stress ratio :math:`-\\sigma_{xz}/\\sigma_{zz}` against height, with "
-            ":math:`\\tan\\theta` (dotted); the grey band is the bulk. Right: :math:`\\sigma_{zz}` against the "
-            "weight of the material above, :math:`g\\cos\\theta\\int_z^h\\rho\\,dz'` (the line is equality). "
-            "In steady uniform flow both hold exactly at every height (the paper)."),
-        "fig_regimes": FigureSpec(
-            figures.fig_regimes, "Silbert et al. 2001, fig. 2 (flow regimes)",
-            "Outcome and depth-averaged speed against the angle; the shaded band is the paper's steady "
-            "range (about 20-26 degrees for h of 20-40 d; thinner beds stop at higher angles)."),
+    figures = {  # captions: captions.yaml
+        "fig_profiles": FigureSpec(figures.fig_profiles, "Silbert et al. 2001, figs. 3-5 (velocity, packing, temperature profiles)"),
+        "fig_stress": FigureSpec(figures.fig_stress, "Silbert et al. 2001, section III (momentum balance)"),
+        "fig_regimes": FigureSpec(figures.fig_regimes, "Silbert et al. 2001, fig. 2 (flow regimes)"),
     }
-    table_caption = ("One row per angle: status, bulk stress ratio against tan(theta), weight-check residual, "
-                     "Bagnold fit and bulk packing; the provenance column names the rung and size. The columns "
-                     "theta_arrested_max, theta_steady_min/max and theta_accelerating_min give the flowing range "
-                     "the sweep brackets (paper: steady between about 20 and 26 degrees at h ~ 20-40 d).")
     table_sort = ("theta",)
     # a bed that stopped will not start again: end the flow stage at once
     stop_statuses = ("arrested",)

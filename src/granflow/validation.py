@@ -391,6 +391,19 @@ def read_case(path: Path) -> tuple[dict, dict, dict, str]:
     return record, status, scalars, why_not
 
 
+def read_table(file: Path) -> pd.DataFrame:
+    """A CSV table (a case's ``analysis/<name>.csv``, a scene's ``table.csv``), or an empty table where
+    the file is absent or empty.
+
+    Parameters
+    ----------
+    file : Path
+        The CSV file.
+    """
+    file = Path(file)
+    return pd.read_csv(file) if file.exists() and file.stat().st_size else pd.DataFrame()
+
+
 def concat_profiles(named_parts) -> dict[str, pd.DataFrame]:
     """``{name: one table}`` from ``(name, [per-case tables])`` pairs, leaving out names without tables."""
     return {name: pd.concat(parts, ignore_index=True) for name, parts in named_parts if parts}

@@ -18,7 +18,6 @@ stand in (the note says so). Fit parameters carry the fits' standard errors.
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,7 +27,7 @@ import pandas as pd
 
 from granflow.plotting import _pm
 from granflow.registry import finite
-from granflow.validation import Check, ValidationResult, concat_profiles, systematic
+from granflow.validation import Check, ValidationResult, concat_profiles, read_case, read_table, systematic
 from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.heap.analysis as hp
@@ -119,18 +118,11 @@ class HeapCase:
                 and math.isclose(self.feed_rate, feed_rate, rel_tol=1e-6))
 
 
-def _table(path: Path) -> pd.DataFrame:
-    return pd.read_csv(path) if path.exists() and path.stat().st_size else pd.DataFrame()
-
-
 def load_case(name: str, path: Path) -> HeapCase:
     """The case's record, run status, analysis scalars and tables (empty where absent), and its errors."""
     path = Path(path)
-    record = json.loads((path / "params.json").read_text())
-    status = json.loads((path / "run" / "status.json").read_text())
-    scalars_file = path / "analysis" / "scalars.json"
-    scalars = json.loads(scalars_file.read_text()) if scalars_file.exists() else {}
-    tables = {t: _table(path / "analysis" / f"{t}.csv") for t in ("per_x", "collapse", "surface", "deposit", "deposit_variants")}
+    record, status, scalars, _ = read_case(path)
+    tables = {t: read_table(path / "analysis" / f"{t}.csv") for t in ("per_x", "collapse", "surface", "deposit", "deposit_variants")}
     case = HeapCase(name, path, record, status, scalars, tables)
     case.errors, case.error_note = headline_errors(case)
     return case

@@ -27,7 +27,6 @@ errors of the analysis.
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,7 +36,7 @@ import pandas as pd
 
 from granflow.plotting import _pm
 from granflow.registry import finite
-from granflow.validation import Check, ValidationResult, concat_profiles, systematic
+from granflow.validation import Check, ValidationResult, concat_profiles, read_case, read_table, systematic
 from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.silo.analysis as sl
@@ -103,18 +102,11 @@ class SiloCase:
         return finite(self.record.get("R_over_rb"))
 
 
-def _table(path: Path) -> pd.DataFrame:
-    return pd.read_csv(path) if path.exists() and path.stat().st_size else pd.DataFrame()
-
-
 def load_case(name: str, path: Path) -> SiloCase:
     """The case's record, run status, analysis scalars and tables (empty where absent), and its errors."""
     path = Path(path)
-    record = json.loads((path / "params.json").read_text())
-    status = json.loads((path / "run" / "status.json").read_text())
-    scalars_file = path / "analysis" / "scalars.json"
-    scalars = json.loads(scalars_file.read_text()) if scalars_file.exists() else {}
-    case = SiloCase(name, path, record, status, scalars, *(_table(path / "analysis" / f"{t}.csv")
+    record, status, scalars, _ = read_case(path)
+    case = SiloCase(name, path, record, status, scalars, *(read_table(path / "analysis" / f"{t}.csv")
                                                            for t in ("fields", "contact", "flow", "orifice_plane")))
     case.errors, case.error_note = headline_errors(case)
     return case
@@ -585,7 +577,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
     """
     loaded = sorted((load_case(name, path) for name, path in cases.items()),
                     key=lambda c: (np.nan_to_num(c.R_over_rb, nan=np.inf), c.name))
-    table = _table(Path(scene_dir) / "table.csv")
+    table = read_table(Path(scene_dir) / "table.csv")
     checks = (beverloo_checks(table) + velocity_exponent_checks(loaded)
               + [flow_scale_check(loaded), collapse_eq7_check(loaded), collapse_check(loaded)])
     for make in (surface_rate_check, profile_check, transition_check, bulk_check, partial_check, contact_check):

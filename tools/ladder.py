@@ -22,6 +22,7 @@ import argparse
 import json
 import math
 import shlex
+import textwrap
 import sys
 from pathlib import Path
 
@@ -229,8 +230,9 @@ def figure(df: pd.DataFrame, ladder: dict, path: Path) -> None:
         ax.title.set_fontsize(8)
         ax.set_ylim(bottom=0)
         ax.legend(fontsize=7)
-    fig.suptitle(f"{ladder['scene']} ladder (rung {ladder['rung']}, sweep {ladder.get('sweep')}): error against the "
-                 "paper (bars: stat ⊕ syst) vs cost", fontsize=9)
+    sweep = ", ".join(f"{k} {'/'.join(map(str, v))}" for k, v in (ladder.get("sweep") or {}).items())
+    fig.suptitle(textwrap.fill(f"{ladder['scene']} ladder (rung {ladder['rung']}; {sweep}): error against the paper "
+                               "(bars: stat ⊕ syst) against cost", 70), fontsize=9)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)

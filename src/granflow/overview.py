@@ -16,7 +16,7 @@ import math
 from collections import Counter
 from pathlib import Path
 
-from .validation import _fmt
+from .validation import format_with_errors
 
 #: characters with a meaning in reStructuredText inline markup, escaped in table cells
 _RST_SPECIAL = "\\`*_|[]<>"
@@ -86,7 +86,7 @@ def overview_rst(summaries: list[dict], rung: str) -> str:
         for c in checks:
             unit = f" {c['unit']}" if c.get("unit") else ""
             rows.append([c["quantity"], f"{c['paper']}{unit} ({c['source']})",
-                         _fmt(c.get("ours"), c.get("error"), _finite_or_none(c.get("syst"))) + unit,
+                         format_with_errors(c.get("ours"), c.get("error"), _finite_or_none(c.get("syst"))) + unit,
                          c.get("case", ""), c.get("verdict", "")])
         lines += _table(f"{s['scene']} (rung {s.get('rung', rung)}): {s.get('paper', '')}",
                         ["quantity", "paper (source)", "ours ± stat (± syst)", "case", "verdict"], rows,

@@ -28,8 +28,8 @@ from .yamlio import (  # noqa: F401 (the loader's names, re-exported: granflow.c
     MAX_NUMBER_CHARS,
     TEMPLATING_KEYS,
     ConfigError,
-    _dotted,
     check_extent,
+    dotted_path,
     load_yaml,
     refuse_templating,
     yaml_load,
@@ -178,7 +178,7 @@ def _allowed(schema: dict) -> str:
 
 
 def _format_error(err: jsonschema.ValidationError, source: str) -> str:
-    key = _dotted(err.absolute_path)
+    key = dotted_path(err.absolute_path)
     desc = err.schema.get("description") if isinstance(err.schema, dict) else None
     tail = f" ({desc})" if desc else ""
     if err.validator == "additionalProperties":

@@ -336,7 +336,7 @@ def _contacts(diameters, masses, k_n: float, xi_n: float, walls: bool) -> list[C
     return out
 
 
-def _model(contact: dict, k_n: float, xi_n: float, contacts: list[Contact]) -> ContactModel:
+def contact_block_model(contact: dict, k_n: float, xi_n: float, contacts: list[Contact]) -> ContactModel:
     """The ContactModel of a scene's ``contact`` block at stiffness k_n and damping xi_n."""
     return ContactModel(k_n=k_n, k_t=contact["kt_over_kn"] * k_n, xi_n=xi_n,
                         xi_t=contact["xi_t_over_xi_n"] * xi_n, friction=contact["friction"],
@@ -352,7 +352,8 @@ def build_contact_model(scene: dict, rung: dict) -> ContactModel:
     m_ref = sphere_mass(1.0, p["density"]) / 2.0
     xi_n = damping_for_restitution(k_n, m_ref, c["e_n"])
     masses = [sphere_mass(d, p["density"]) for d in diameters]
-    return _model(c, k_n, xi_n, _contacts(diameters, masses, k_n, xi_n, bool(scene["effects"].get("walls"))))
+    return contact_block_model(c, k_n, xi_n,
+                               _contacts(diameters, masses, k_n, xi_n, bool(scene["effects"].get("walls"))))
 
 
 def contact_model_for_time(contact: dict, density: float, t_c: float, d_ref: float,
@@ -378,4 +379,4 @@ def contact_model_for_time(contact: dict, density: float, t_c: float, d_ref: flo
     xi_n = -2.0 * math.log(contact["e_n"]) / t_c
     k_n = m_ref * (math.pi**2 / t_c**2 + xi_n**2 / 4.0)
     masses = [sphere_mass(d, density) for d in diameters]
-    return _model(contact, k_n, xi_n, _contacts(diameters, masses, k_n, xi_n, walls))
+    return contact_block_model(contact, k_n, xi_n, _contacts(diameters, masses, k_n, xi_n, walls))

@@ -19,7 +19,7 @@ MAX_PANELS = 4
 
 
 def _footer(fig: Figure, footer: str, right_in: float = 0.25) -> None:
-    """Provenance footer at the bottom and fixed margins (as :func:`granflow.plotting._finish`, without saving)."""
+    """Provenance footer at the bottom and fixed margins (as :func:`granflow.plotting.finish`, without saving)."""
     chars_per_line = int(fig.get_figwidth() * 15)
     text = "\n".join(textwrap.wrap("Provenance: " + (str(footer).strip() or "provenance not given"),
                                    chars_per_line))

@@ -30,9 +30,37 @@ class SweepAxis:
     name: bool = False
 
     def to_dir(self, value) -> str:
+        """The directory text of ``value``: as is for a name, else ``scale`` x the number in ``%g``.
+
+        Parameters
+        ----------
+        value : str or float
+            A value of the case key, in the units of the scene file.
+
+        Returns
+        -------
+        str
+        """
         return str(value) if self.name else f"{float(value) * self.scale:g}"
 
     def from_dir(self, text: str):
+        """The value of the case key that the directory text ``text`` stands for (inverse of :meth:`to_dir`).
+
+        Parameters
+        ----------
+        text : str
+            The part of a directory name after ``<label>~``.
+
+        Returns
+        -------
+        str or float
+            The text for a name, else the number divided by ``scale``.
+
+        Raises
+        ------
+        ValueError
+            For a number axis whose ``text`` is not a number.
+        """
         return text if self.name else float(text) / self.scale
 
 
@@ -127,10 +155,12 @@ class Workload:
 
     @property
     def steps(self) -> int:
+        """Time steps of the whole case (all stages)."""
         return sum(s.steps for s in self.stages.values())
 
     @property
     def atom_steps(self) -> float:
+        """Atom-steps of the whole case (all stages)."""
         return float(sum(s.atom_steps for s in self.stages.values()))
 
     @property

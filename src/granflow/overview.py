@@ -30,7 +30,7 @@ import re
 from collections import Counter
 from pathlib import Path
 
-from .validation import _fmt
+from .validation import format_with_errors
 
 #: characters with a meaning in reStructuredText inline markup, escaped in table cells
 _RST_SPECIAL = "\\`*_|[]<>"
@@ -195,7 +195,7 @@ def overview_rst(summaries: list[dict], rung: str) -> str:
             unit = f" {c['unit']}" if c.get("unit") else ""
             rows.append([s["scene"], cut(c.get("quantity", ""), QUANTITY_CHARS),
                          case_label(c.get("case", ""), [k.get("dir", "") for k in s.get("cases", [])]),
-                         _fmt(c.get("ours"), c.get("error"), _finite_or_none(c.get("syst"))) + unit,
+                         format_with_errors(c.get("ours"), c.get("error"), _finite_or_none(c.get("syst"))) + unit,
                          cut(f"{c.get('paper', '')}{unit}", PAPER_CHARS), short_verdict(c.get("verdict"))])
     if rows:
         lines += _table(f"Rung {rung}; at most {HEADLINES_PER_SCENE} a scene, one a quantity, those with a number "

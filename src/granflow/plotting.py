@@ -29,7 +29,7 @@ def _colour(i: int):
     return f"C{i % 10}"
 
 
-def _finish(fig: Figure, cases: list[dict], path, right_in: float = 0.25) -> Figure:
+def finish(fig: Figure, cases: list[dict], path, right_in: float = 0.25) -> Figure:
     """Add the provenance footer, lay out with fixed margins (``right_in`` inches on the right) and save."""
     seen = []
     for c in cases:
@@ -70,7 +70,7 @@ def _finish_cases(fig: Figure, cases: list[dict], path, right_in: float = 0.25) 
     """Footer naming every case (``label: provenance``), fixed margins, save at 150 dpi."""
     rows = [dict(provenance=f"{_label(c)}: {str(c.get('provenance') or '').strip() or 'provenance not given'}")
             for c in cases]
-    return _finish(fig, rows or [dict(provenance=NO_CASE)], path, right_in=right_in)
+    return finish(fig, rows or [dict(provenance=NO_CASE)], path, right_in=right_in)
 
 
 def _label(case: dict) -> str:

@@ -91,9 +91,26 @@ class Scene:
 
     # -- what it gives ------------------------------------------------------------------
     def gives(self, hook: str) -> bool:
-        """Whether the scene gives the optional ``hook``, a key of :data:`OPTIONAL`: ``validation``,
-        ``cost_study`` (``knobs``, ``headline`` and :meth:`observables`, all three),
-        ``paper_reference`` or ``snapshots``. The generic layers skip what it does not give."""
+        """Whether the scene gives the optional ``hook``.
+
+        The generic layers skip what it does not give.
+
+        Parameters
+        ----------
+        hook : str
+            A key of :data:`OPTIONAL`: ``validation``, ``cost_study`` (``knobs``,
+            ``headline`` and :meth:`observables`, all three), ``paper_reference`` or
+            ``snapshots``.
+
+        Returns
+        -------
+        bool
+
+        Raises
+        ------
+        KeyError
+            For a ``hook`` that is not a key of :data:`OPTIONAL`.
+        """
         if hook == "cost_study":
             return bool(self.knobs) and bool(self.headline) and _overrides(self, "observables")
         if hook == "snapshots":
@@ -114,10 +131,33 @@ class Scene:
         return yaml.safe_load(path.read_text()) if path.exists() else {"table": "", "figures": {}}
 
     def figure_caption(self, name: str) -> str:
-        """The report caption of figure ``name`` (its spec's, else the package's captions.yaml)."""
+        """The report caption of figure ``name`` (its spec's, else the package's captions.yaml).
+
+        Parameters
+        ----------
+        name : str
+            A key of :attr:`figures`.
+
+        Returns
+        -------
+        str
+            Empty when neither gives one.
+
+        Raises
+        ------
+        KeyError
+            For a ``name`` that is not one of the scene's figures.
+        """
         return self.figures[name].caption or self.captions()["figures"].get(name, "")
 
     def table_caption_text(self) -> str:
+        """The report caption of the scene's table (``table_caption``, else the package's captions.yaml).
+
+        Returns
+        -------
+        str
+            Empty when neither gives one.
+        """
         return self.table_caption or self.captions().get("table", "")
 
     # -- particle snapshots -------------------------------------------------------------
@@ -125,8 +165,23 @@ class Scene:
     SNAPSHOT_RUNGS: ClassVar[tuple[str, ...]] = ("demo",)
 
     def snapshots_at(self, scene: dict, rung: str) -> SnapshotView | None:
-        """The scene's :class:`SnapshotView` if its effect ``snapshots`` (a list of rungs,
-        default ``SNAPSHOT_RUNGS``) names ``rung``, else None: no image is written."""
+        """The scene's :class:`SnapshotView` at ``rung``, or None when no image is written there.
+
+        The view is given if the scene file's effect ``snapshots`` (a list of rungs,
+        default ``SNAPSHOT_RUNGS``) names ``rung``, else None: no image is written.
+
+        Parameters
+        ----------
+        scene : dict
+            The scene file's contents (``config/scenes/<name>.yaml``, checked).
+        rung : str
+            Name of the rung.
+
+        Returns
+        -------
+        SnapshotView or None
+            Always None for a scene without ``snapshot``.
+        """
         if self.snapshot is None:
             return None
         rungs = scene.get("effects", {}).get("snapshots", self.SNAPSHOT_RUNGS)
@@ -134,28 +189,122 @@ class Scene:
 
     # -- configuration ------------------------------------------------------------------
     def check(self, scene: dict, source: str) -> None:
-        """Cross-field checks of a scene file beyond its schema; raise ``ConfigError``."""
+        """Cross-field checks of a scene file beyond its schema; raise ``ConfigError``.
+
+        Parameters
+        ----------
+        scene : dict
+            The scene file's contents, already checked against its schema.
+        source : str
+            Where the scene comes from (its file), to name in the messages.
+
+        Raises
+        ------
+        ConfigError
+            For a scene file the scene refuses; the default accepts every one.
+        """
 
     def check_case(self, scene: dict, rung: str, case: dict, source: str) -> None:
-        """Refuse a sweep point that cannot run at ``rung`` (``ConfigError``); default: accept."""
+        """Refuse a sweep point that cannot run at ``rung`` (``ConfigError``); default: accept.
+
+        Parameters
+        ----------
+        scene : dict
+            The scene file's contents.
+        rung : str
+            Name of the rung.
+        case : dict
+            The sweep point, ``{case key: value}`` (:meth:`sweep_points`).
+        source : str
+            Where the campaign comes from (its file), to name in the messages.
+
+        Raises
+        ------
+        ConfigError
+            For a sweep point the scene refuses at ``rung``.
+        """
 
     def case_values(self, scene: dict, rung: str, case: dict | None = None) -> dict:
-        """The scene file's default case with a sweep point's values on top."""
+        """The scene file's default case with a sweep point's values on top.
+
+        Parameters
+        ----------
+        scene : dict
+            The scene file's contents; its ``case`` section is the default case.
+        rung : str
+            Name of the rung (unused by the default; a scene may depend on it).
+        case : dict, optional
+            The sweep point, ``{case key: value}``, in the units of the scene file.
+
+        Returns
+        -------
+        dict
+            A new dict: ``scene["case"]`` updated with ``case``.
+        """
         return dict(scene["case"], **(case or {}))
 
     # -- decks --------------------------------------------------------------------------
     def parameters(self, scene: dict, rung: str, case: dict | None = None):
-        """``(params, context)``: the deck numbers and the template context (with ``record``)."""
+        """``(params, context)``: the deck numbers and the template context (with ``record``).
+
+        Parameters
+        ----------
+        scene : dict
+            The scene file's contents.
+        rung : str
+            Name of the rung.
+        case : dict, optional
+            The sweep point, ``{case key: value}``; None for the default case.
+
+        Returns
+        -------
+        params : list of granflow.deck.Param
+            The deck's numbers, in the units of the scene's deck.
+        context : dict
+            The template context; ``context["record"]`` is the parameter record
+            written to ``params.json``.
+
+        Raises
+        ------
+        NotImplementedError
+            From this base class: every scene must define it (:data:`REQUIRED`).
+        """
         raise NotImplementedError(f"scene {self.name!r} does not define parameters()")
 
     def particle_count(self, scene: dict, rung: str, case: dict | None = None) -> int:
         """Most particles the case holds, estimated *before* anything is built (the size check
         refuses an oversize case with it). Default: :meth:`workload` of the parameter record;
-        a scene whose :meth:`parameters` allocates per-particle arrays overrides this with a formula."""
+        a scene whose :meth:`parameters` allocates per-particle arrays overrides this with a formula.
+
+        Parameters
+        ----------
+        scene : dict
+            The scene file's contents.
+        rung : str
+            Name of the rung.
+        case : dict, optional
+            The sweep point; None for the default case.
+
+        Returns
+        -------
+        int
+            Number of particles (peak, for a scene that inserts them).
+        """
         return int(self.workload(self.parameters(scene, rung, case)[1]["record"]).particles)
 
     def describe(self, record: dict) -> str:
-        """One line for ``granflow render``: the case's size and main numbers."""
+        """One line for ``granflow render``: the case's size and main numbers.
+
+        Parameters
+        ----------
+        record : dict
+            The case's parameter record (``params.json``); the default reads
+            ``record["parameters"]["n_particles"]``.
+
+        Returns
+        -------
+        str
+        """
         return f"{record['parameters'].get('n_particles', '?')} particles"
 
     def workload(self, record: dict):
@@ -170,6 +319,24 @@ class Scene:
         ``<name>.lmp.j2`` (with the shared includes it names): ``granular`` if
         any ``pair_style granular``. Override where the deck runs more or other
         steps, or inserts particles.
+
+        Parameters
+        ----------
+        record : dict
+            The case's parameter record (``params.json``): ``parameters`` (with
+            ``n_particles``, ``n_segment`` in time steps, ``n_fall``, ``n_settle``,
+            ``n_relax``), ``n_flow_segments``, ``n_average_segments`` and, optionally,
+            ``n_particles_estimate`` and ``contact_law.pair_style``.
+
+        Returns
+        -------
+        Workload
+            Stage lengths in time steps and atom-steps.
+
+        Raises
+        ------
+        OSError
+            When the package has no deck template ``<name>.lmp.j2``.
         """
         template = (self.package_dir / f"{self.name}.lmp.j2").read_text()
         shared = Path(__file__).resolve().parents[2] / "lammps_inputs"  # the decks' shared includes
@@ -188,90 +355,338 @@ class Scene:
             or ("granular" if "granular" in styles else (styles[0] if styles else "gran/hooke/history")))
 
     def simulate_ranks(self, rung: str, cores: int) -> int:
-        """MPI ranks of one run: 1 for the small rungs (cases run side by side), all cores above."""
+        """MPI ranks of one run: 1 for the small rungs (cases run side by side), all cores above.
+
+        Parameters
+        ----------
+        rung : str
+            Name of the rung.
+        cores : int
+            Cores available to the run.
+
+        Returns
+        -------
+        int
+        """
         return 1 if rung in ("smoke", "demo") else cores
 
     # -- running ------------------------------------------------------------------------
     def flow_verdict(self, steady, thermo: pd.DataFrame, record: dict):
-        """Rename or replace the generic steady-state verdict of the flow stage (default: keep it)."""
+        """Rename or replace the generic steady-state verdict of the flow stage (default: keep it).
+
+        Called by the runner after every flow segment.
+
+        Parameters
+        ----------
+        steady : postproc.steady.SteadyState
+            The generic verdict (:func:`postproc.steady.detect_steady_state` of the
+            centre-of-mass speed).
+        thermo : pandas.DataFrame
+            The thermo output of the flow stage so far (columns ``Time``, in the
+            scene's :attr:`time_unit`, ``v_ucm``, ``segment``, ...).
+        record : dict
+            The case's parameter record (``params.json``).
+
+        Returns
+        -------
+        postproc.steady.SteadyState
+            The verdict to act on: its ``status`` ends the flow stage when it is
+            ``steady``, ``jammed`` or one of :attr:`stop_statuses`.
+        """
         return steady
 
     def after_segment(self, segment_thermo: pd.DataFrame | None, record: dict) -> tuple[str, str] | None:
-        """A named reason ``(status, reason)`` to end the averaging early, or None to go on."""
+        """A named reason ``(status, reason)`` to end the averaging early, or None to go on.
+
+        Called by the runner after every averaging segment.
+
+        Parameters
+        ----------
+        segment_thermo : pandas.DataFrame or None
+            The thermo rows of the segment just run (None when there are none).
+        record : dict
+            The case's parameter record (``params.json``).
+
+        Returns
+        -------
+        tuple of (str, str) or None
+            The status and the reason; the default always goes on.
+        """
         return None
 
     # -- analysis -----------------------------------------------------------------------
     def analyse(self, case_dir: Path) -> tuple[dict[str, pd.DataFrame], dict]:
-        """``(tables, scalars)`` of one finished case; scalars carry ``status`` and ``provenance``."""
+        """``(tables, scalars)`` of one finished case; scalars carry ``status`` and ``provenance``.
+
+        Parameters
+        ----------
+        case_dir : pathlib.Path
+            The case directory (``results/<scene>/<rung>/<case>/``) with ``run/`` and
+            ``params.json``.
+
+        Returns
+        -------
+        tables : dict of str to pandas.DataFrame
+            Written as ``analysis/<name>.csv``.
+        scalars : dict
+            Written as ``analysis/scalars.json``; numbers in the units the scene
+            states (its deck's, as a rule).
+
+        Raises
+        ------
+        NotImplementedError
+            From this base class: every scene must define it (:data:`REQUIRED`).
+        """
         raise NotImplementedError(f"scene {self.name!r} does not define analyse()")
 
     def table(self, rows: list[dict]) -> pd.DataFrame:
-        """One row per case (the scalars), sorted by the sweep axes."""
+        """One row per case (the scalars), sorted by the sweep axes.
+
+        Parameters
+        ----------
+        rows : list of dict
+            The scalars of each case (``analysis/scalars.json``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Sorted by ``table_sort``, else by the sweep keys (those present).
+        """
         table = pd.DataFrame(rows)
         keys = [k for k in (self.table_sort or [a.key for a in self.sweep]) if k in table]
         return table.sort_values(keys) if keys and not table.empty else table
 
     def analyse_threads(self, cores: int) -> int:
-        """Threads of one case's analysis (the compiled coarse-graining uses them); default 1."""
+        """Threads of one case's analysis (the compiled coarse-graining uses them); default 1.
+
+        Parameters
+        ----------
+        cores : int
+            Cores available to the analysis.
+
+        Returns
+        -------
+        int
+        """
         return 1
 
     def figure_cases(self, cases: list[tuple[dict, dict[str, pd.DataFrame]]]) -> list[dict]:
-        """The figure functions' cases from each case's ``(scalars, tables)``."""
+        """The figure functions' cases from each case's ``(scalars, tables)``.
+
+        Parameters
+        ----------
+        cases : list of tuple of (dict, dict of str to pandas.DataFrame)
+            Each case's scalars and tables (:meth:`analyse`).
+
+        Returns
+        -------
+        list of dict
+            What the ``draw`` of every :class:`FigureSpec` takes.
+
+        Raises
+        ------
+        NotImplementedError
+            From this base class: a scene with figures must define it (:data:`REQUIRED`).
+        """
         raise NotImplementedError(f"scene {self.name!r} does not define figure_cases()")
 
     # -- the error-versus-cost study ----------------------------------------------------
     def observables(self, case_dir: Path, record: dict, t_average: float,
                     block: tuple[float, float] | None = None) -> tuple[dict, tuple[float, float]]:
-        """Optional, with ``knobs`` and ``headline`` the cost study (:data:`OPTIONAL`): headline numbers
-        (``{key: value}``, NaN where not measurable) over the first ``t_average``
-        of the averaging stage, or over ``block`` of its window; and the window ``(t0, t1)`` used.
+        """The headline numbers of one case, and the window they were measured over.
+
+        Optional, with ``knobs`` and ``headline`` the cost study (:data:`OPTIONAL`):
+        headline numbers (``{key: value}``, NaN where not measurable) over the
+        first ``t_average`` of the averaging stage, or over ``block`` of its window;
+        and the window ``(t0, t1)`` used.
 
         The generic study splits the returned window into equal blocks for the errors.
+
+        Parameters
+        ----------
+        case_dir : pathlib.Path
+            The finished, analysed case directory.
+        record : dict
+            The case's parameter record (``params.json``).
+        t_average : float
+            Length of the averaging window, in the scene's :attr:`time_unit`, from
+            the start of the averaging stage.
+        block : tuple of (float, float), optional
+            A part ``(t0, t1)`` of the window to measure over instead, same unit
+            and origin.
+
+        Returns
+        -------
+        values : dict
+            ``{key: value}`` for every key of ``headline``, in the units its label states.
+        window : tuple of (float, float)
+            The window ``(t0, t1)`` measured over.
+
+        Raises
+        ------
+        NotImplementedError
+            From this base class: a scene without a cost study has none.
         """
         raise NotImplementedError(f"scene {self.name!r} has no headline observables")
 
     def averaged_window(self, measure, case_dir: Path, record: dict, t_average: float,
                         block: tuple[float, float] | None = None) -> tuple[dict, tuple[float, float]]:
-        """:meth:`observables` for scenes that measure over a time window of the averaging stage:
-        ``measure(case_dir, record, t_window=...)`` over ``block`` or the first ``t_average``,
-        NaN for what it does not return."""
+        """:meth:`observables` for scenes that measure over a time window of the averaging stage.
+
+        ``measure(case_dir, record, t_window=...)`` over ``block`` or the first
+        ``t_average``, NaN for what it does not return.
+
+        Parameters
+        ----------
+        measure : callable
+            ``measure(case_dir, record, t_window=(t0, t1)) -> dict`` of headline values.
+        case_dir : pathlib.Path
+            The finished, analysed case directory.
+        record : dict
+            The case's parameter record (``params.json``).
+        t_average : float
+            Length of the averaging window, in the scene's :attr:`time_unit`.
+        block : tuple of (float, float), optional
+            A part ``(t0, t1)`` of the window to measure over instead.
+
+        Returns
+        -------
+        values : dict
+            Every key of ``headline``: the measured value, else NaN.
+        window : tuple of (float, float)
+            ``block``, else ``(0, t_average)``.
+        """
         window = block or (0.0, t_average)
         return dict(self.nan_observables(), **measure(case_dir, record, t_window=window)), window
 
     # -- the validation record ----------------------------------------------------------
     def validation(self, scene_dir: Path, cases: dict[str, Path]):
-        """Optional (:data:`OPTIONAL`): compare the finished cases of ``scene_dir`` (``{case dir
-        name: path}``, analysed, with the rung's figures under ``scene_dir/figures``) with the paper.
+        """Optional (:data:`OPTIONAL`): compare the finished cases of ``scene_dir`` with the paper.
 
-        Returns a :class:`granflow.validation.ValidationResult`: one ``Check`` per quantity
-        (the paper's value and where it is stated, ours with its statistical error), the
-        profiles and figures to keep, and what differs from the paper's set-up.
+        Parameters
+        ----------
+        scene_dir : pathlib.Path
+            The rung's directory (``results/<scene>/<rung>``), with the rung's
+            figures under ``scene_dir/figures``.
+        cases : dict of str to pathlib.Path
+            ``{case dir name: path}`` of the analysed cases.
+
+        Returns
+        -------
+        granflow.validation.ValidationResult
+            One ``Check`` per quantity (the paper's value and where it is stated,
+            ours with its statistical error), the profiles and figures to keep, and
+            what differs from the paper's set-up.
+
+        Raises
+        ------
+        NotImplementedError
+            From this base class: a scene without a validation has none.
         """
         raise NotImplementedError(f"scene {self.name!r} has no validation (Scene.validation)")
 
     def paper_reference(self, scene: dict) -> dict:
-        """Optional: particle count and simulated time of the paper rung (for the cost extrapolation)."""
+        """Optional: particle count and simulated time of the paper rung (for the cost extrapolation).
+
+        Parameters
+        ----------
+        scene : dict
+            The scene file's contents (with its ``paper`` rung).
+
+        Returns
+        -------
+        dict
+            ``n_particles``, ``sim_time`` (the scene's :attr:`time_unit`), ``dt``,
+            ``dt_fraction`` and ``how`` (what ``sim_time`` adds up).
+
+        Raises
+        ------
+        NotImplementedError
+            From this base class: a scene without a paper reference has none.
+        """
         raise NotImplementedError(f"scene {self.name!r} has no paper reference")
 
     def cost_note(self, scene: dict, rung: str) -> str:
-        """One line naming the cost study's base case in the figures' footers."""
+        """One line naming the cost study's base case in the figures' footers.
+
+        Parameters
+        ----------
+        scene : dict
+            The scene file's contents.
+        rung : str
+            The rung of the study's base case.
+
+        Returns
+        -------
+        str
+        """
         return f"rung {rung}"
 
     def nan_observables(self) -> dict:
+        """Every key of ``headline`` with the value NaN (:meth:`observables` when nothing can be measured).
+
+        Returns
+        -------
+        dict of str to float
+        """
         return {key: float("nan") for key, _ in self.headline}
 
     # -- naming a case ------------------------------------------------------------------
     def case_dir(self, point: dict) -> str:
-        """Relative directory of a sweep point, e.g. ``W~20/phi~0.6``."""
+        """Relative directory of a sweep point, e.g. ``W~20/phi~0.6``.
+
+        Parameters
+        ----------
+        point : dict
+            The sweep point, ``{case key: value}``; needs every key of ``sweep``.
+
+        Returns
+        -------
+        str
+            ``<label>~<value>`` per sweep axis, joined by ``/`` (:meth:`SweepAxis.to_dir`).
+        """
         return "/".join(f"{a.label}~{a.to_dir(point[a.key])}" for a in self.sweep)
 
     def case_from_dir(self, rel: str) -> dict:
-        """Inverse of :meth:`case_dir`."""
+        """Inverse of :meth:`case_dir`.
+
+        Parameters
+        ----------
+        rel : str
+            A case directory relative to the rung's, e.g. ``W~20/phi~0.6``.
+
+        Returns
+        -------
+        dict
+            ``{case key: value}``, numbers divided back by each axis' ``scale``.
+
+        Raises
+        ------
+        KeyError
+            When ``rel`` lacks the label of a sweep axis.
+        ValueError
+            When a part has no ``~``, or a number does not read as one.
+        """
         parts = dict(p.split("~", 1) for p in rel.strip("/").split("/"))
         return {a.key: a.from_dir(parts[a.label]) for a in self.sweep}
 
     def sweep_points(self, scene: dict, sweep: dict, rung: str) -> list[dict]:
-        """Every combination of the campaign's sweep lists (a missing list: the default case's value)."""
+        """Every combination of the campaign's sweep lists (a missing list: the default case's value).
+
+        Parameters
+        ----------
+        scene : dict
+            The scene file's contents.
+        sweep : dict
+            The campaign's sweep of the scene, ``{case key: list of values}``.
+        rung : str
+            Name of the rung.
+
+        Returns
+        -------
+        list of dict
+            One ``{case key: value}`` per combination, the first axis slowest.
+        """
         points = [{}]
         for axis in self.sweep:
             values = sweep.get(axis.key) or [self.case_values(scene, rung)[axis.key]]

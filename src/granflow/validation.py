@@ -339,7 +339,7 @@ def copy_figure(src: Path, dst: Path) -> None:
         pass   # not a PNG Pillow reads: the plain copy stays
 
 
-def _fmt(x: float, err: float = float("nan"), syst: float | None = None) -> str:
+def format_with_errors(x: float, err: float = float("nan"), syst: float | None = None) -> str:
     """``x ± stat`` or ``x ± stat ± syst`` with the digits of the smaller finite error."""
     if x is None or not math.isfinite(x):
         return "–"
@@ -363,8 +363,8 @@ def readme_table(summaries: list[dict]) -> str:
         for c in s["checks"]:
             unit = f" {c['unit']}" if c.get("unit") else ""
             rows.append(f"| {s['scene']} | {c['quantity']} | {c['paper']}{unit} ({c['source']}) | "
-                        f"{_fmt(c['ours'], c['error'], c.get('syst'))}{unit} | {c['case']} | {s['rung']}, {size} | "
-                        f"{s['cpu_hours']:.2f} | {c['verdict']} |")
+                        f"{format_with_errors(c['ours'], c['error'], c.get('syst'))}{unit} | {c['case']} | "
+                        f"{s['rung']}, {size} | {s['cpu_hours']:.2f} | {c['verdict']} |")
     return "\n".join(rows) + "\n"
 
 

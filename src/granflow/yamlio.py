@@ -130,16 +130,16 @@ def _check_unambiguous(node, path: list, source: str, key: bool = False, loader:
             _check_unambiguous(item, path + [i], source, loader=loader)
     elif (isinstance(node, yaml.ScalarNode) and node.style is None and len(node.value) > MAX_NUMBER_CHARS
           and node.tag in ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")):
-        what = f"the key {node.value[:20]}..." if key else f"{_dotted(path) if path else 'the value'} = {node.value[:20]}..."
+        what = f"the key {node.value[:20]}..." if key else f"{dotted_path(path) if path else 'the value'} = {node.value[:20]}..."
         raise ConfigError(f"{source}: {what} (line {node.start_mark.line + 1}) has {len(node.value)} characters: "
                           f"allowed a number of at most {MAX_NUMBER_CHARS} characters")
     elif isinstance(node, yaml.ScalarNode) and node.style is None and node.tag in _AMBIGUOUS:
         pattern, fix = _AMBIGUOUS[node.tag]
         if pattern.match(node.value):
             read = yaml.load(node.value, Loader=yaml.SafeLoader)
-            where = f" of {_dotted(path)}" if path else ""
+            where = f" of {dotted_path(path)}" if path else ""
             what = (f"the key {node.value}{where}" if key
-                    else f"{_dotted(path)} = {node.value}" if path else node.value)
+                    else f"{dotted_path(path)} = {node.value}" if path else node.value)
             raise ConfigError(
                 f"{source}: {what} (line {node.start_mark.line + 1}) is ambiguous YAML: "
                 f"YAML 1.1 (PyYAML, Snakemake) reads it as {read!r}, YAML 1.2 as {_yaml12(node.value)!r}; "
@@ -159,7 +159,7 @@ def _refuse_duplicate_keys(node: yaml.MappingNode, path: list, source: str, load
         except (yaml.YAMLError, TypeError):
             continue  # the constructor refuses it with its own message
         if key in seen:
-            where = f" of {_dotted(path)}" if path else " at the top level"
+            where = f" of {dotted_path(path)}" if path else " at the top level"
             first, second = seen[key].start_mark, k.start_mark
             lines = (f"on line {first.line + 1} and line {second.line + 1}" if first.line != second.line else
                      f"on line {first.line + 1} (columns {first.column + 1} and {second.column + 1})")
@@ -267,7 +267,7 @@ def load_yaml(path: str | Path) -> dict:
     return data
 
 
-def _dotted(path: Iterable) -> str:
+def dotted_path(path: Iterable) -> str:
     out = ""
     for p in path:
         out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))

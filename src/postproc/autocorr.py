@@ -40,6 +40,17 @@ RELIABLE_OVER_G = 50
 
 class _DropAll(logging.Filter):
     def filter(self, record: logging.LogRecord) -> bool:
+        """Drop every record (a :class:`logging.Filter` that lets nothing through).
+
+        Parameters
+        ----------
+        record : logging.LogRecord
+
+        Returns
+        -------
+        bool
+            Always False.
+        """
         return False
 
 
@@ -231,6 +242,22 @@ def combined_error(e: MeanError, se_block: float) -> tuple[float, str]:
       windows of 8-30 correlation times, 16 sub-windows alone covered the true mean at 2 se in
       75-90 % of the windows, 4 blocks in 81-85 %.
     - ``"block"``: fewer than :data:`MIN_SAMPLES` finite values: the block error.
+
+    Parameters
+    ----------
+    e : MeanError
+        The autocorrelation analysis of the series (:func:`mean_error` or
+        :func:`weighted_mean_error`).
+    se_block : float
+        The block error of the same mean, in the unit of the series (NaN when
+        there is none).
+
+    Returns
+    -------
+    se : float
+        The error to report, in the unit of the series.
+    method : str
+        ``"autocorrelation"``, ``"max(autocorrelation, block)"`` or ``"block"``.
     """
     if e.n < MIN_SAMPLES or not np.isfinite(e.se):
         return float(se_block), "block"
@@ -253,6 +280,24 @@ def statistical_inefficiencies(y, c: float = 5.0) -> np.ndarray:
     ``tests/unit/test_field_errors.py`` checks that each column equals emcee's own
     :func:`statistical_inefficiency` to round-off. Clipped to :math:`g \\ge 1`; 1 for a
     constant column; NaN with fewer than :data:`MIN_SAMPLES` rows.
+
+    Parameters
+    ----------
+    y : array_like, shape (n, m)
+        ``m`` series of ``n`` equally spaced samples each, one per column; finite
+        (a NaN makes its column's :math:`g` NaN).
+    c : float
+        Window factor of the automatic window (emcee's default 5).
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        :math:`g` of each column, in samples.
+
+    Raises
+    ------
+    ValueError
+        If ``y`` is not two-dimensional.
     """
     y = np.asarray(y, dtype=float)
     n, m = y.shape
@@ -273,7 +318,28 @@ def statistical_inefficiencies(y, c: float = 5.0) -> np.ndarray:
 
 
 def combined_errors(se, se_naive, g, n, se_block) -> np.ndarray:
-    """:func:`combined_error` of many series at once (arrays of ``MeanError`` fields, ``n`` values each)."""
+    """:func:`combined_error` of many series at once (arrays of ``MeanError`` fields, ``n`` values each).
+
+    Element-wise, the same choice as :func:`combined_error`: the autocorrelation
+    error where :math:`n \\ge 50 \\max(g, g_b)` (or there is no finite block
+    error), else the larger of the two, and the block error where the
+    autocorrelation error is not finite or :math:`n <` :data:`MIN_SAMPLES`.
+
+    Parameters
+    ----------
+    se, se_naive, g : array_like, shape (m,)
+        The ``se``, ``se_naive`` and ``g`` (in samples) of :class:`MeanError` for
+        each series; errors in the unit of its values.
+    n : int or array_like of int, shape (m,)
+        Finite values of each series.
+    se_block : array_like, shape (m,)
+        The block error of each series, same unit (NaN when there is none).
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        The error to report for each series.
+    """
     se, se_naive, g, se_block = (np.asarray(a, dtype=float) for a in (se, se_naive, g, se_block))
     with np.errstate(invalid="ignore", divide="ignore"):
         g_block = np.where(se_naive > 0, (se_block / se_naive) ** 2, np.where(se_block > 0, np.inf, 1.0))

@@ -35,9 +35,21 @@ class _BlockedSums:
 
     @property
     def n_frames(self) -> int:
+        """Frames added so far."""
         return int(sum(self.counts))
 
     def add(self, x: np.ndarray) -> None:
+        """Add one frame's values to the last sub-block, or start a new one.
+
+        A full last sub-block starts a new one; when all ``capacity`` are full,
+        adjacent pairs merge first (the sub-block length doubles).
+
+        Parameters
+        ----------
+        x : ndarray
+            The frame's values (e.g. primitive densities, shape (n_nodes, K)); the
+            same shape every frame, any unit.
+        """
         if self.counts and self.counts[-1] < self.length:
             self.sums[-1] += x
             self.counts[-1] += 1
@@ -50,10 +62,27 @@ class _BlockedSums:
         self.counts.append(1)
 
     def total_mean(self) -> np.ndarray:
+        """Mean over all frames added, the shape of one frame's values.
+
+        Returns
+        -------
+        ndarray
+        """
         return np.sum(self.sums, axis=0) / self.n_frames
 
     def block_means(self, n_blocks: int) -> list[np.ndarray]:
-        """Means over ``min(n_blocks, n_subblocks)`` contiguous, nearly equal blocks."""
+        """Means over ``min(n_blocks, n_subblocks)`` contiguous, nearly equal blocks.
+
+        Parameters
+        ----------
+        n_blocks : int
+            Blocks wanted; whole sub-blocks are grouped by their middle frame.
+
+        Returns
+        -------
+        list of ndarray
+            One mean per block, in time order, each the shape of a frame's values.
+        """
         counts = np.asarray(self.counts, dtype=float)
         nb = min(n_blocks, len(counts))
         middle = np.cumsum(counts) - 0.5 * counts
@@ -65,7 +94,15 @@ class _BlockedSums:
         return means
 
     def subblock_means(self) -> tuple[list[np.ndarray], np.ndarray]:
-        """Means over each current sub-block, in time order, and the sub-blocks' frame counts."""
+        """Means over each current sub-block, in time order, and the sub-blocks' frame counts.
+
+        Returns
+        -------
+        means : list of ndarray
+            One per sub-block, in time order.
+        counts : ndarray of float, shape (n_sub,)
+            Frames in each sub-block.
+        """
         counts = np.asarray(self.counts, dtype=float)
         return [s / c for s, c in zip(self.sums, counts)], counts
 
@@ -128,6 +165,11 @@ def correlated_errors(sub_values: np.ndarray, counts: np.ndarray, block_se: np.n
     Returns
     -------
     ndarray, shape (n_nodes,)
+
+    Raises
+    ------
+    ValueError
+        If the shapes do not match as above.
     """
     y = np.asarray(sub_values, dtype=float)
     counts = np.asarray(counts, dtype=float)

@@ -161,11 +161,29 @@ class CoarseGraining:
                 progress=None) -> CGResult:
         """Time-averaged coarse-grained fields of the ``dump custom`` files ``dumps`` (in time order).
 
-        ``contacts``: ``dump local`` files of ``compute pair/local`` with
-        ``property/local`` ids at the same steps as the atom frames (they give
-        the contact stress). ``progress``: a stream for a progress line (e.g.
-        ``sys.stderr``), or None. :func:`coarse_grain` says what the dumps need,
-        what is refused and when.
+        :func:`coarse_grain` says what the dumps need, what is refused and when.
+        The result is also kept as :attr:`result` (None after a refused compute).
+
+        Parameters
+        ----------
+        dumps : sequence of path
+            ``dump custom`` files in time order (text, gzipped text or binary).
+        contacts : sequence of path
+            ``dump local`` files of ``compute pair/local`` with ``property/local``
+            ids at the same steps as the atom frames (they give the contact stress).
+        progress : file-like, optional
+            A stream for a progress line (e.g. ``sys.stderr``), or None.
+
+        Returns
+        -------
+        CGResult
+            Fields in the units of the dump (:func:`coarse_grain`).
+
+        Raises
+        ------
+        CGInputError
+            For a missing file, a choice the first selected frames refuse, or an
+            impossible value or unmatched contact frame as the frames are read.
         """
         start = time.perf_counter()
         self.result = None  # a refused compute leaves none

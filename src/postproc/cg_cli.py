@@ -49,6 +49,19 @@ example: a hopper with its axis at x = y = 0.05 m, steps 100000 to 200000:
 
 
 def build_parser(prog: str = "granflow cg", add_help: bool = True) -> argparse.ArgumentParser:
+    """The argument parser of ``granflow cg`` (:func:`add_arguments`, with the description and the epilog).
+
+    Parameters
+    ----------
+    prog : str
+        The program name its usage line shows.
+    add_help : bool
+        Whether it has ``-h``/``--help``.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+    """
     ap = argparse.ArgumentParser(prog=prog, description=DESCRIPTION, epilog=EPILOG, add_help=add_help,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     add_arguments(ap)
@@ -56,6 +69,16 @@ def build_parser(prog: str = "granflow cg", add_help: bool = True) -> argparse.A
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """Add the arguments of ``granflow cg`` to ``ap`` (granflow's CLI adds them to its ``cg`` subcommand).
+
+    Lengths (``--width``, ``--cutoff``, ``--spacing``, ``--range``, ``--axis``) are
+    in the dump's length unit, ``--density`` in its mass per volume; ``--frames``
+    takes timesteps.
+
+    Parameters
+    ----------
+    ap : argparse.ArgumentParser
+    """
     ap.add_argument("dumps", nargs="+", metavar="DUMP", help="dump custom files, in time order")
     ap.add_argument("--coords", required=True, choices=COORDINATES, help="coordinates resolved")
     ap.add_argument("--axis", metavar="X0,Y0", help="vertical axis of r and rz (default: box centre)")
@@ -118,6 +141,19 @@ def run(args: argparse.Namespace, command: str | None = None) -> int:
     """Run a parsed ``granflow cg``; 0 on success, 2 when the input is refused.
 
     ``command`` (the command line) is recorded in ``meta.json``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed by a parser with :func:`add_arguments`.
+    command : str, optional
+        The command line, recorded as ``meta["command"]``.
+
+    Returns
+    -------
+    int
+        The exit status; a refusal (:class:`~postproc.cg_output.CGInputError`) is
+        printed to stderr as ``granflow: refused: ...``, not raised.
     """
     out = Path(args.out)
     try:
@@ -162,6 +198,18 @@ def run(args: argparse.Namespace, command: str | None = None) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python -m postproc.cg_cli``: parse ``argv`` and :func:`run` it.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status of :func:`run` (argparse exits with 2 on bad usage).
+    """
     argv = sys.argv[1:] if argv is None else list(argv)
     prog = "python -m postproc.cg_cli"
     return run(build_parser(prog=prog).parse_args(argv), command=" ".join([prog, *map(shlex.quote, argv)]))

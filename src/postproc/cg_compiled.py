@@ -89,11 +89,34 @@ class RZTables:
 
     @classmethod
     def build(cls, C: float) -> "RZTables":
-        """The tables for :math:`C` (:func:`postproc.rz_tables.table_arrays`)."""
+        """The tables for :math:`C` (:func:`postproc.rz_tables.table_arrays`).
+
+        Parameters
+        ----------
+        C : float
+            :math:`c^2 / 2\\sigma^2` of the kernel (dimensionless, > 0).
+
+        Returns
+        -------
+        RZTables
+        """
         return cls(C=float(C), **table_arrays(float(C)))
 
     def J(self, a, b) -> np.ndarray:
-        """:math:`J(a, b)` for arrays of pairs, with the compiled interpolation (for tests)."""
+        """:math:`J(a, b)` for arrays of pairs, with the compiled interpolation (for tests).
+
+        Parameters
+        ----------
+        a, b : array_like
+            :math:`a = r_n r_i / \\sigma^2 \\ge 0` and :math:`b = (c^2 - p^2) / 2\\sigma^2`
+            (dimensionless), broadcast together; :math:`b` is clipped to :math:`C` far
+            from the axis and :math:`J = 0` for :math:`b \\le 0`.
+
+        Returns
+        -------
+        ndarray
+            :math:`J(a, b)` (dimensionless, at most :math:`\\pi`), the broadcast shape.
+        """
         a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
         out = np.empty(a.shape)
         _J_pairs(np.ascontiguousarray(a).reshape(-1), np.ascontiguousarray(b).reshape(-1), *self._args(),
@@ -431,7 +454,17 @@ def _deposit_particles(order, start, stop, r, z, values, groups, grid, kernel, t
 
 
 def padded(n_k: int) -> int:
-    """Columns of the deposit buffers: K rounded up to a multiple of the block."""
+    """Columns of the deposit buffers: K rounded up to a multiple of the block.
+
+    Parameters
+    ----------
+    n_k : int
+        Number of per-particle quantities K.
+
+    Returns
+    -------
+    int
+    """
     return -(-n_k // _BLOCK) * _BLOCK
 
 
@@ -537,7 +570,22 @@ def _deposit_threads(r, z, values, groups, n_groups, grid, kernel, tables, n_wor
 
 
 def uniform_axis(nodes, rtol: float = 1e-9) -> tuple[float, float, int] | None:
-    """``(first, spacing, count)`` of an equally spaced axis, or None."""
+    """``(first, spacing, count)`` of an equally spaced axis, or None.
+
+    Parameters
+    ----------
+    nodes : array_like, 1-D
+        Node coordinates, any length unit.
+    rtol : float
+        Largest departure from the equally spaced axis, relative to the larger
+        of the spacing and the largest absolute node coordinate.
+
+    Returns
+    -------
+    tuple of (float, float, int) or None
+        ``(first, spacing, count)`` in the unit of ``nodes``; None with fewer than
+        two nodes or unequal spacing.
+    """
     nodes = np.asarray(nodes, dtype=float)
     if nodes.size < 2:
         return None
@@ -552,21 +600,25 @@ def deposit_rz(points, values, groups, n_groups, r_axis, z_axis, width, cutoff, 
                n_threads: int | None = None) -> np.ndarray:
     """Kernel-weighted densities of ``values`` on the ``(r, z)`` grid, per group.
 
+    Lengths are in any one unit (the dump's), and the weights :math:`w_{in}`
+    in its inverse cube: a density of :math:`q` per unit volume. Particles
+    without a finite position are left out.
+
     Parameters
     ----------
     points : ndarray, shape (N, 2)
-        Particle :math:`(r_i, z_i)`.
+        Particle :math:`(r_i, z_i)`, length units.
     values : ndarray, shape (N, K)
-        Per-particle quantities :math:`q_{ik}`.
+        Per-particle quantities :math:`q_{ik}` (any units; shape (N,) is one column).
     groups : ndarray of int, shape (N,)
         Group of each particle, in ``[0, n_groups)``.
     n_groups : int
     r_axis, z_axis : tuple (first, spacing, count)
-        The equally spaced node axes (:func:`uniform_axis`).
+        The equally spaced node axes (:func:`uniform_axis`), length units.
     width, cutoff : float
-        :math:`\\sigma` and :math:`c`.
+        :math:`\\sigma` and :math:`c`, length units.
     norm : float
-        :math:`1 / \\pi Z` of the truncated kernel.
+        :math:`1 / \\pi Z` of the truncated kernel (:math:`Z` in volume units).
     tables : RZTables
         Built for :math:`C = c^2 / 2\\sigma^2`.
     n_threads : int, optional
@@ -577,6 +629,11 @@ def deposit_rz(points, values, groups, n_groups, r_axis, z_axis, width, cutoff, 
     -------
     ndarray, shape (n_groups, n_r * n_z, K)
         :math:`\\sum_{i \\in g} w_{in} q_{ik}`, nodes in C order (z fastest), contiguous.
+
+    Raises
+    ------
+    ValueError
+        If ``tables`` were built for another :math:`C` than ``width`` and ``cutoff`` give.
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     values = np.asarray(values, dtype=np.float64)

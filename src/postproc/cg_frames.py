@@ -20,7 +20,24 @@ from .frame import DumpFrame, ImpossibleValues, ParticleFrame, impossible_values
 
 def input_paths(dumps: Sequence[str | os.PathLike], contacts: Sequence[str | os.PathLike] | None = ()
                 ) -> tuple[list[str], list[str]]:
-    """The atom and contact dump paths as strings; refuses none given or one that is not a file."""
+    """The atom and contact dump paths as strings; refuses none given or one that is not a file.
+
+    Parameters
+    ----------
+    dumps : sequence of path
+        The atom (``dump custom``) files.
+    contacts : sequence of path, optional
+        The contact (``dump local``) files; None is none.
+
+    Returns
+    -------
+    paths, contact_paths : list of str
+
+    Raises
+    ------
+    CGInputError
+        When ``dumps`` is empty or a path is not a file.
+    """
     paths = [os.fspath(p) for p in dumps]
     contact_paths = [os.fspath(p) for p in contacts or ()]
     if not paths:
@@ -32,7 +49,21 @@ def input_paths(dumps: Sequence[str | os.PathLike], contacts: Sequence[str | os.
 
 
 def count_selected(paths: Sequence[str], select: Callable[[int], bool]) -> int | None:
-    """The selected frames of binary dumps, from their headers alone; None if a dump cannot tell."""
+    """The selected frames of binary dumps, from their headers alone; None if a dump cannot tell.
+
+    Parameters
+    ----------
+    paths : sequence of str
+        Dump files, in order.
+    select : callable
+        ``select(timestep) -> bool``, e.g. a :class:`~postproc.cg_options.FrameSelection`.
+
+    Returns
+    -------
+    int or None
+        The frames ``select`` accepts; None when a dump cannot be scanned without
+        reading it (a text dump, or a :class:`~postproc.frame.DumpError`).
+    """
     selected = []
     try:
         for _ in read_dumps(paths, select=lambda step: bool(selected.append(select(step)))):
@@ -58,7 +89,17 @@ class FrameTally:
     truncated: str | None = None  # the error that ended a truncated dump, when allowed
 
     def drop(self, timestep: int, columns: dict[str, int], n_dropped: int) -> None:
-        """Count ``n_dropped`` atoms left out of the frame at ``timestep`` (per offending column)."""
+        """Count ``n_dropped`` atoms left out of the frame at ``timestep`` (per offending column).
+
+        Parameters
+        ----------
+        timestep : int
+            The frame's step.
+        columns : dict of str to int
+            Atoms with a non-finite value, per column.
+        n_dropped : int
+            Atoms left out of the frame.
+        """
         self.dropped["atom_frames"] += n_dropped
         self.dropped["frames"] += 1
         if self.dropped["first_step"] is None:
@@ -67,7 +108,15 @@ class FrameTally:
             self.dropped["columns"][k] = self.dropped["columns"].get(k, 0) + n
 
     def add(self, frame: ParticleFrame, n_inside: int) -> None:
-        """Count a frame deposited, ``n_inside`` of its particles inside the grid."""
+        """Count a frame deposited, ``n_inside`` of its particles inside the grid.
+
+        Parameters
+        ----------
+        frame : ParticleFrame
+            The frame deposited; its ``timestep`` and ``time`` are recorded.
+        n_inside : int
+            Its particles whose centre lies inside the grid's ranges.
+        """
         self.n_frames += 1
         self.n_particles += len(frame.mass)
         self.n_inside += n_inside
@@ -87,6 +136,33 @@ def particle_frames(paths: Sequence[str], select: Callable[[int], bool], tally: 
     """The selected frames of the dumps in turn, as particle frames (:func:`possible_atoms` first).
 
     Dropped atoms and, with ``allow_truncated``, the end of a truncated dump are recorded in ``tally``.
+
+    Parameters
+    ----------
+    paths : sequence of str
+        The atom dumps, in time order.
+    select : callable
+        ``select(timestep) -> bool``.
+    tally : FrameTally
+        Updated with the dropped atoms and a truncation.
+    density : float, optional
+        Particle material density, mass per volume in the dump's units, for
+        dumps without a mass column (:meth:`ParticleFrame.from_dump`).
+    drop_nonfinite : bool
+        Leave out atoms with a non-finite value instead of refusing the frame.
+    allow_truncated : bool
+        End quietly at a truncated dump instead of refusing it.
+
+    Yields
+    ------
+    ParticleFrame
+
+    Raises
+    ------
+    CGInputError
+        For a dump that does not read (:class:`~postproc.frame.DumpError`; a
+        truncated one unless ``allow_truncated``) or an atom no particle can be
+        (:func:`possible_atoms`).
     """
     try:
         for path in paths:
@@ -106,7 +182,26 @@ def particle_frames(paths: Sequence[str], select: Callable[[int], bool], tally: 
 
 def contact_frames(paths: Sequence[str], roles: Mapping[str, str] | None, allow_truncated: bool
                    ) -> Iterator[ContactFrame]:
-    """The frames of the contact dumps in turn; a truncated one ends them when ``allow_truncated``."""
+    """The frames of the contact dumps in turn; a truncated one ends them when ``allow_truncated``.
+
+    Parameters
+    ----------
+    paths : sequence of str
+        The contact dumps, in time order.
+    roles : mapping of str to str, optional
+        Column of each role (:func:`postproc.contacts.read_contact_dump`).
+    allow_truncated : bool
+        End quietly at a truncated dump instead of refusing it.
+
+    Yields
+    ------
+    ContactFrame
+
+    Raises
+    ------
+    CGInputError
+        For a dump that does not read (a truncated one unless ``allow_truncated``).
+    """
     try:
         for p in paths:
             yield from read_contact_dump(p, roles=roles)
@@ -134,12 +229,26 @@ class Progress:
         self.open = False
 
     def abort(self) -> None:
+        """End an open terminal line (a newline), so that what is printed next starts a line of its own."""
         if self.open:
             self.stream.write("\n")
             self.stream.flush()
             self.open = False
 
     def update(self, frames: int, particles: int, step: int, final: bool = False) -> None:
+        """Print the progress line, at most every ``interval`` s on a terminal (30 s on another stream).
+
+        Parameters
+        ----------
+        frames : int
+            Frames done.
+        particles : int
+            Particle-frames done (for the rate, in particle-frames per second).
+        step : int
+            The last frame's timestep.
+        final : bool
+            Print whatever the time since the last line, and end the line.
+        """
         if self.stream is None:
             return
         now = time.perf_counter()
@@ -164,6 +273,17 @@ class Progress:
 
 
 def sha256(path: str | os.PathLike) -> str:
+    """The SHA-256 digest of the file at ``path``, read in chunks of 4 MiB.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    str
+        64 hexadecimal digits.
+    """
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for chunk in iter(lambda: fh.read(1 << 22), b""):
@@ -172,7 +292,29 @@ def sha256(path: str | os.PathLike) -> str:
 
 
 def first_frames(paths: Sequence[str], select: Callable[[int], bool], limit: int = 64) -> tuple[DumpFrame, DumpFrame | None]:
-    """The first selected frame and the first selected one holding atoms (None if not within ``limit``)."""
+    """The first selected frame and the first selected one holding atoms (None if not within ``limit``).
+
+    Parameters
+    ----------
+    paths : sequence of str
+        The atom dumps, in time order.
+    select : callable
+        ``select(timestep) -> bool``.
+    limit : int
+        Selected frames after the first to look through for atoms.
+
+    Returns
+    -------
+    first : DumpFrame
+    populated : DumpFrame or None
+
+    Raises
+    ------
+    CGInputError
+        When no frame is selected.
+    DumpError
+        For a dump that does not read.
+    """
     first = None
     for k, frame in enumerate(read_dumps(paths, select=select)):
         first = first or frame
@@ -186,7 +328,18 @@ def first_frames(paths: Sequence[str], select: Callable[[int], bool], limit: int
 
 
 def possible_radii(frame: DumpFrame) -> np.ndarray | None:
-    """The frame's possible radii (finite and > 0: the others are refused or dropped as the frames are read)."""
+    """The frame's possible radii (finite and > 0: the others are refused or dropped as the frames are read).
+
+    Parameters
+    ----------
+    frame : DumpFrame
+
+    Returns
+    -------
+    ndarray or None
+        The radii (``radius``, else ``diameter / 2``), in the dump's length unit;
+        None when the frame has neither column.
+    """
     c = frame.columns
     if "radius" in c:
         radii = np.asarray(c["radius"], float)
@@ -222,6 +375,25 @@ def possible_atoms(path: str, frame: DumpFrame, drop_nonfinite: bool) -> tuple[D
     infinity (position, velocity, spin, mass, radius) is refused unless
     ``drop_nonfinite``, when those atoms are left out. Returns the frame (without
     them), the dropped atoms per offending column and the number of atoms dropped.
+
+    Parameters
+    ----------
+    path : str
+        The dump, to name in the message.
+    frame : DumpFrame
+    drop_nonfinite : bool
+
+    Returns
+    -------
+    frame : DumpFrame
+    columns : dict of str to int
+    n_dropped : int
+
+    Raises
+    ------
+    CGInputError
+        For an impossible value that is not dropped, naming the file, the step,
+        the atom and the column.
     """
     found = impossible_values(frame)
     if found is None:
@@ -240,7 +412,29 @@ def possible_atoms(path: str, frame: DumpFrame, drop_nonfinite: bool) -> tuple[D
 
 def paired(frames: Iterable[ParticleFrame], contacts: Iterator[ContactFrame] | None, select,
             strict_end: Callable[[], bool]):
-    """Yield (frame, contacts) with contacts matched by timestep; refuse unmatched ones."""
+    """Yield (frame, contacts) with contacts matched by timestep; refuse unmatched ones.
+
+    Parameters
+    ----------
+    frames : iterable of ParticleFrame
+        The selected atom frames, in time order.
+    contacts : iterator of ContactFrame or None
+        The contact frames, in time order; None: every frame comes with None.
+    select : callable
+        ``select(timestep) -> bool``, applied to the contact frames.
+    strict_end : callable
+        ``strict_end() -> bool``: whether a contact frame left after the last atom
+        frame is refused (false after a truncated atom dump).
+
+    Yields
+    ------
+    tuple of (ParticleFrame, ContactFrame or None)
+
+    Raises
+    ------
+    CGInputError
+        For an atom frame without a contact frame at its step, or the reverse.
+    """
     if contacts is None:
         for frame in frames:
             yield frame, None
@@ -268,7 +462,19 @@ def paired(frames: Iterable[ParticleFrame], contacts: Iterator[ContactFrame] | N
 
 
 def describe_dropped(dropped: dict, n_frames: int) -> str:
-    """``dropped`` (``meta["frames"]["dropped_nonfinite"]``) in words."""
+    """``dropped`` (``meta["frames"]["dropped_nonfinite"]``) in words.
+
+    Parameters
+    ----------
+    dropped : dict
+        ``atom_frames``, ``frames``, ``first_step`` and ``columns`` (count per column).
+    n_frames : int
+        Frames read.
+
+    Returns
+    -------
+    str
+    """
     if not dropped["atom_frames"]:
         return "no atom (none had a non-finite value)"
     columns = ", ".join(f"{k} {n}" for k, n in dropped["columns"].items())

@@ -42,6 +42,23 @@ class FrameSelection:
 
     @classmethod
     def parse(cls, text: str | None) -> "FrameSelection":
+        """The selection ``START:STOP[:EVERY]`` (timesteps, STOP included; an empty part is open).
+
+        Parameters
+        ----------
+        text : str or None
+            E.g. ``"100000:200000"`` or ``"::1000"``; None or ``""`` selects every frame.
+
+        Returns
+        -------
+        FrameSelection
+
+        Raises
+        ------
+        CGInputError
+            For text that is not two or three integers >= 0 separated by ``:``, a
+            STOP before START, or an EVERY below 1.
+        """
         if text is None or text == "":
             return cls()
         parts = str(text).split(":")
@@ -77,6 +94,7 @@ class FrameSelection:
         return True
 
     def describe(self) -> str:
+        """The selection in words, e.g. ``"step 100 to last (included), every 10 steps"`` or ``"all frames"``."""
         if self == FrameSelection():
             return "all frames"
         lo = "first" if self.start is None else f"step {self.start}"
@@ -102,30 +120,47 @@ class Grid:
 
     @property
     def spacing(self) -> tuple[float, ...]:
+        """Cell size along each coordinate, ``(hi - lo) / count``, in the dump's length unit."""
         return tuple((hi - lo) / n for (lo, hi), n in zip(self.ranges, self.counts))
 
     @property
     def n_nodes(self) -> int:
+        """Number of nodes (cells), the product of the counts."""
         return int(np.prod(self.counts))
 
     @property
     def shape(self) -> tuple[int, ...]:
+        """The counts, as an array shape (C order: the last coordinate fastest)."""
         return tuple(self.counts)
 
     def edges(self) -> tuple[np.ndarray, ...]:
+        """Cell edges along each coordinate, one array of ``count + 1`` values per coordinate."""
         return tuple(np.linspace(lo, hi, n + 1) for (lo, hi), n in zip(self.ranges, self.counts))
 
     def nodes(self) -> tuple[np.ndarray, ...]:
+        """Cell centres (the nodes) along each coordinate, one array of ``count`` values per coordinate."""
         return tuple(0.5 * (e[1:] + e[:-1]) for e in self.edges())
 
     def contains(self, points: np.ndarray) -> np.ndarray:
-        """Which points (N, d) lie inside the grid's ranges."""
+        """Which points (N, d) lie inside the grid's ranges.
+
+        Parameters
+        ----------
+        points : ndarray, shape (N, d)
+            Coordinates in the grid's order (e.g. ``r, z``), the unit of its ranges.
+
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+            True where every coordinate lies in its closed range ``[lo, hi]``.
+        """
         inside = np.ones(len(points), dtype=bool)
         for k, (lo, hi) in enumerate(self.ranges):
             inside &= (points[:, k] >= lo) & (points[:, k] <= hi)
         return inside
 
     def describe(self) -> str:
+        """The grid in words: per coordinate its range and node count, e.g. ``"z in [0, 10] (20 nodes)"``."""
         return ", ".join(f"{n} in [{lo:g}, {hi:g}] ({c} nodes)" for n, (lo, hi), c in
                          zip(self.names, self.ranges, self.counts))
 
@@ -142,7 +177,24 @@ def _per_coordinate(values, names: Sequence[str], option: str) -> list:
 
 
 def parse_numbers(text: str, option: str) -> list[float]:
-    """``"0.1,0.2"`` -> [0.1, 0.2], refusing anything that is not a finite number."""
+    """``"0.1,0.2"`` -> [0.1, 0.2], refusing anything that is not a finite number.
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated numbers.
+    option : str
+        The option they were given to, named in the message.
+
+    Returns
+    -------
+    list of float
+
+    Raises
+    ------
+    CGInputError
+        For a part that is not a number or not finite.
+    """
     out = []
     for part in str(text).split(","):
         try:
@@ -156,7 +208,22 @@ def parse_numbers(text: str, option: str) -> list[float]:
 
 
 def parse_ranges(text: str | None) -> list[tuple[float, float]] | None:
-    """``"LO:HI[,LO:HI,...]"`` -> [(lo, hi), ...]; None for None."""
+    """``"LO:HI[,LO:HI,...]"`` -> [(lo, hi), ...]; None for None.
+
+    Parameters
+    ----------
+    text : str or None
+        Comma-separated ``LO:HI`` pairs.
+
+    Returns
+    -------
+    list of tuple of (float, float) or None
+
+    Raises
+    ------
+    CGInputError
+        For a part that is not ``LO:HI`` of finite numbers.
+    """
     if text is None:
         return None
     out = []
@@ -170,6 +237,25 @@ def parse_ranges(text: str | None) -> list[tuple[float, float]] | None:
 
 
 def make_coordinates(coords: str, axis):
+    """The coordinate system of a ``coords`` choice.
+
+    Parameters
+    ----------
+    coords : str
+        One of :data:`COORDINATES`.
+    axis : tuple of (float, float) or None
+        :math:`(x_0, y_0)` of the vertical axis, for ``r`` and ``rz``, in the dump's
+        length unit.
+
+    Returns
+    -------
+    CartesianCoordinates, RCoordinates or RZCoordinates
+
+    Raises
+    ------
+    ValueError
+        For a ``coords`` that is not a Cartesian choice, ``r`` or ``rz``.
+    """
     if coords in ("r", "rz"):
         cls = RCoordinates if coords == "r" else RZCoordinates
         return cls(axis)
@@ -186,7 +272,38 @@ def _default_range(name: str, box: np.ndarray, axis) -> tuple[float, float]:
 
 def make_grid(names: Sequence[str], spacing, ranges, box: np.ndarray, axis=None,
               kernel: str = "gaussian") -> tuple[Grid, list[str]]:
-    """The grid of ``spacing`` over ``ranges`` (default from the box); notes on adjusted spacings."""
+    """The grid of ``spacing`` over ``ranges`` (default from the box); notes on adjusted spacings.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Coordinate names (``x``, ``y``, ``z``, ``r``).
+    spacing : float or sequence of float
+        Node spacing, one for all coordinates or one per coordinate, in the dump's
+        length unit.
+    ranges : sequence of (float, float), optional
+        ``(lo, hi)`` per coordinate (one for all), same unit; default the box
+        along a Cartesian axis, and from 0 to the nearest side wall for ``r``.
+    box : ndarray, shape (3, 2)
+        The box of the first frame.
+    axis : tuple of (float, float), optional
+        :math:`(x_0, y_0)` of the axis of ``r``.
+    kernel : str
+        One of :data:`KERNELS`; a smooth kernel needs two nodes per coordinate.
+
+    Returns
+    -------
+    grid : Grid
+    notes : list of str
+        One per spacing adjusted to a whole number of cells.
+
+    Raises
+    ------
+    CGInputError
+        For a number of values that is neither one nor one per coordinate, a
+        spacing that is not positive and finite, an empty range, a radius range
+        below 0, or a single node with a smooth kernel.
+    """
     spacing = _per_coordinate(spacing, names, "--spacing")
     ranges = _per_coordinate(ranges, names, "--range") if ranges is not None else [None] * len(names)
     out_ranges, counts, notes = [], [], []
@@ -212,6 +329,30 @@ def make_grid(names: Sequence[str], spacing, ranges, box: np.ndarray, axis=None,
 
 
 def make_kernel(kernel: str, grid: Grid, width: float | None, cutoff: float | None):
+    """The kernel of a ``kernel`` choice on ``grid``: bins on its cells, or a radial kernel on its nodes.
+
+    Parameters
+    ----------
+    kernel : str
+        One of :data:`KERNELS`.
+    grid : Grid
+    width : float or None
+        Gaussian standard deviation, or Lucy's range, in the dump's length unit
+        (unused by ``heaviside``).
+    cutoff : float or None
+        Gaussian truncation radius, same unit; default :data:`GAUSSIAN_CUTOFF`
+        widths.
+
+    Returns
+    -------
+    HeavisideBins, Gaussian or Lucy
+
+    Raises
+    ------
+    ValueError
+        For a width or cutoff that is not positive (:class:`CGOptions` refuses
+        them before).
+    """
     if kernel == "heaviside":
         return HeavisideBins(grid.edges())
     if kernel == "gaussian":

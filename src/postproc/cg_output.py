@@ -34,6 +34,18 @@ def check_outputs(out_dir: str | os.PathLike, inputs: Iterable[str | os.PathLike
     file, when one of the files :func:`write_result` writes there
     (:data:`OUTPUT_NAMES`) is an input (by name, through a symbolic link or as a
     hard link), or when ``out_dir`` exists and is not a directory.
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        The output directory (it need not exist).
+    inputs : iterable of path
+        The input files (atom and contact dumps).
+
+    Raises
+    ------
+    CGInputError
+        In the cases above.
     """
     out = Path(out_dir)
     for given in inputs:
@@ -57,6 +69,23 @@ def write_result(result, out_dir: str | os.PathLike) -> dict[str, Path]:
     axes x, y, z by name (``r`` to x), unresolved ones are a single layer at
     zero. Raises :class:`CGInputError` (:func:`check_outputs`), writing
     nothing, when that would replace one of the result's inputs.
+
+    Parameters
+    ----------
+    result : postproc.cg.CGResult
+        Its ``meta["inputs"]`` names the inputs that must not be replaced.
+    out_dir : str or os.PathLike
+        Created (with its parents) if absent.
+
+    Returns
+    -------
+    dict of str to pathlib.Path
+        The paths written, by ``fields``, ``meta`` and ``vtk``.
+
+    Raises
+    ------
+    CGInputError
+        When writing would replace an input (nothing is written).
     """
     out = Path(out_dir)
     check_outputs(out, [entry["path"] for entry in result.meta.get("inputs", ())])

@@ -216,7 +216,20 @@ def _need_branch(branch):
 
 
 def sym_outer(f: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """:math:`\\tfrac12(f_a r_b + f_b r_a)` in the order xx yy zz xy xz yz, shape (M, 6)."""
+    """:math:`\\tfrac12(f_a r_b + f_b r_a)` in the order xx yy zz xy xz yz, shape (M, 6).
+
+    Parameters
+    ----------
+    f : array_like, shape (M, 3)
+        Contact forces, the dump's force unit.
+    r : array_like, shape (M, 3)
+        Branch vectors, the dump's length unit.
+
+    Returns
+    -------
+    ndarray, shape (M, 6)
+        Force times length (stress times volume).
+    """
     f, r = np.asarray(f, dtype=float), np.asarray(r, dtype=float)
     return np.column_stack([
         f[:, 0] * r[:, 0],
@@ -253,17 +266,25 @@ def branch_quadrature(x_i: np.ndarray, branch: np.ndarray, width: float):
     Parameters
     ----------
     x_i : ndarray, shape (M, 3)
+        Centre :math:`\\mathbf x_i` of the first particle of each contact, length units.
     branch : ndarray, shape (M, 3)
+        :math:`\\mathbf r_{ij}`, length units.
     width : float
         Standard deviation :math:`\\sigma` of the kernel, length units.
 
     Returns
     -------
     points : ndarray, shape (P, 3)
+        :math:`\\mathbf p_q`, length units.
     contact : ndarray of int, shape (P,)
         Contact of each point.
     weight : ndarray, shape (P,)
         :math:`\\omega_q`, summing to one per contact.
+
+    Raises
+    ------
+    ValueError
+        If ``branch`` is None (see :meth:`ContactFrame.with_branch`).
     """
     branch = _need_branch(branch)
     x_i, branch = np.asarray(x_i, dtype=float).reshape(-1, 3), np.asarray(branch, dtype=float).reshape(-1, 3)

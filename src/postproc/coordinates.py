@@ -116,11 +116,33 @@ class CartesianCoordinates:
         return walls
 
     def points(self, frame: ParticleFrame) -> np.ndarray:
-        """Particle coordinates along the resolved axes, shape (N, d)."""
+        """Particle coordinates along the resolved axes, shape (N, d).
+
+        Parameters
+        ----------
+        frame : ParticleFrame
+            Its ``position``, shape (N, 3), in the dump's length unit.
+
+        Returns
+        -------
+        ndarray, shape (N, d)
+            Same unit; d = ``len(names)``.
+        """
         return self.map(frame.position)
 
     def map(self, positions) -> np.ndarray:
-        """The resolved coordinates of positions ``(N, 3)``, shape (N, d)."""
+        """The resolved coordinates of positions ``(N, 3)``, shape (N, d).
+
+        Parameters
+        ----------
+        positions : array_like, shape (N, 3)
+            Points, any length unit (the dump's).
+
+        Returns
+        -------
+        ndarray, shape (N, d)
+            The columns of the resolved axes, in their order; same unit.
+        """
         pos = np.asarray(positions, dtype=float).reshape(-1, 3)
         if len(self.indices) == 1:
             return pos[:, self.indices[0] : self.indices[0] + 1]
@@ -128,12 +150,38 @@ class CartesianCoordinates:
 
     @staticmethod
     def local_vectors(positions, vectors) -> np.ndarray:
-        """Cartesian components unchanged (the basis is the lab frame everywhere)."""
+        """Cartesian components unchanged (the basis is the lab frame everywhere).
+
+        Parameters
+        ----------
+        positions : array_like, shape (N, 3)
+            Unused (the basis does not depend on position).
+        vectors : array_like, shape (N, 3)
+            Any vectors (velocities, spins), any unit.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            ``vectors`` as a float array.
+        """
         return np.asarray(vectors, dtype=float)
 
     @staticmethod
     def local_tensors(positions, tensors) -> np.ndarray:
-        """Cartesian components unchanged."""
+        """Cartesian components unchanged.
+
+        Parameters
+        ----------
+        positions : array_like, shape (N, 3)
+            Unused.
+        tensors : array_like, shape (N, 6)
+            Symmetric tensors, xx yy zz xy xz yz, any unit.
+
+        Returns
+        -------
+        ndarray, shape (N, 6)
+            ``tensors`` as a float array.
+        """
         return np.asarray(tensors, dtype=float)
 
     def transverse_area(self, box) -> float:
@@ -141,6 +189,16 @@ class CartesianCoordinates:
 
         An area for one resolved axis (:math:`L_y L_z` for x), a length for two,
         1.0 for three (then ``box`` may be None).
+
+        Parameters
+        ----------
+        box : array_like, shape (3, 2) or None
+            Lower and upper box bounds per axis, the dump's length unit.
+
+        Returns
+        -------
+        float
+            In that unit to the power ``3 - d``.
         """
         if len(self.indices) == 3:
             return 1.0
@@ -148,7 +206,26 @@ class CartesianCoordinates:
         return float(np.prod([lengths[k] for k in range(3) if k not in self.indices]))
 
     def cell_volumes(self, edges: Sequence[np.ndarray], box) -> np.ndarray:
-        """Cell volumes :math:`\\prod_{a \\in R} \\Delta a \\; A`, shape (n_1, ..., n_d)."""
+        """Cell volumes :math:`\\prod_{a \\in R} \\Delta a \\; A`, shape (n_1, ..., n_d).
+
+        Parameters
+        ----------
+        edges : sequence of ndarray
+            Increasing cell edges, one array per resolved axis in order, the dump's
+            length unit.
+        box : array_like, shape (3, 2) or None
+            Box bounds for :meth:`transverse_area`, same unit.
+
+        Returns
+        -------
+        ndarray, shape (n_1, ..., n_d)
+            Volumes in that unit cubed (:math:`n_k` = ``len(edges[k]) - 1``).
+
+        Raises
+        ------
+        ValueError
+            If there is not one edge array per resolved axis.
+        """
         if len(edges) != len(self.indices):
             raise ValueError(f"{len(edges)} edge arrays for {len(self.indices)} axes {''.join(self.names)!r}")
         widths = [np.diff(np.asarray(e, dtype=float)) for e in edges]
@@ -216,17 +293,49 @@ class _Cylindrical:
         self.axis_center = (float(axis_center[0]), float(axis_center[1]))
 
     def points(self, frame: ParticleFrame) -> np.ndarray:
-        """Particle coordinates, shape (N, len(names))."""
+        """Particle coordinates, shape (N, len(names)).
+
+        Parameters
+        ----------
+        frame : ParticleFrame
+            Its ``position``, shape (N, 3), in the dump's length unit.
+
+        Returns
+        -------
+        ndarray, shape (N, len(names))
+            :math:`r` (and :math:`z`), same unit.
+        """
         return self.map(frame.position)
 
     def radius(self, positions) -> np.ndarray:
-        """:math:`r = \\sqrt{(x - x_0)^2 + (y - y_0)^2}` of positions ``(N, 3)``, shape (N,)."""
+        """:math:`r = \\sqrt{(x - x_0)^2 + (y - y_0)^2}` of positions ``(N, 3)``, shape (N,).
+
+        Parameters
+        ----------
+        positions : array_like, shape (N, 3)
+            Points, any length unit (that of the axis centre).
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Same unit.
+        """
         pos = np.asarray(positions, dtype=float).reshape(-1, 3)
         dx, dy = pos[:, 0] - self.axis_center[0], pos[:, 1] - self.axis_center[1]
         return np.sqrt(dx * dx + dy * dy)  # np.hypot guards overflow we cannot meet, at 5x the cost
 
     def azimuth(self, positions) -> tuple[np.ndarray, np.ndarray]:
-        """:math:`(\\cos\\theta, \\sin\\theta)` of positions ``(N, 3)``; (1, 0) on the axis."""
+        """:math:`(\\cos\\theta, \\sin\\theta)` of positions ``(N, 3)``; (1, 0) on the axis.
+
+        Parameters
+        ----------
+        positions : array_like, shape (N, 3)
+            Points, the unit of the axis centre.
+
+        Returns
+        -------
+        cos, sin : ndarray, shape (N,)
+        """
         pos = np.asarray(positions, dtype=float).reshape(-1, 3)
         dx, dy = pos[:, 0] - self.axis_center[0], pos[:, 1] - self.axis_center[1]
         r = np.sqrt(dx * dx + dy * dy)
@@ -238,7 +347,20 @@ class _Cylindrical:
         return cos, sin
 
     def local_vectors(self, positions, vectors) -> np.ndarray:
-        """Components :math:`(v_r, v_\\theta, v_z)`, shape (N, 3)."""
+        """Components :math:`(v_r, v_\\theta, v_z)`, shape (N, 3).
+
+        Parameters
+        ----------
+        positions : array_like, shape (N, 3)
+            Where each vector is, the unit of the axis centre (only the azimuth matters).
+        vectors : array_like, shape (N, 3)
+            Cartesian vectors (velocities, spins), any unit.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            Same unit.
+        """
         c, s = self.azimuth(positions)
         v = np.asarray(vectors, dtype=float)
         out = np.empty_like(v)
@@ -253,6 +375,18 @@ class _Cylindrical:
         .. math::
 
             T' = R\\, T R^{\\mathsf T}, \\qquad R = (\\mathbf e_r, \\mathbf e_\\theta, \\mathbf e_z)^{\\mathsf T}
+
+        Parameters
+        ----------
+        positions : array_like, shape (N, 3)
+            Where each tensor is, the unit of the axis centre (only the azimuth matters).
+        tensors : array_like, shape (N, 6)
+            Cartesian symmetric tensors, xx yy zz xy xz yz, any unit.
+
+        Returns
+        -------
+        ndarray, shape (N, 6)
+            Same unit.
         """
         c, s = self.azimuth(positions)
         t = np.asarray(tensors, dtype=float)
@@ -296,16 +430,50 @@ class RCoordinates(_Cylindrical):
     names = ("r",)
 
     def map(self, positions) -> np.ndarray:
-        """:math:`r` of positions ``(N, 3)``, shape (N, 1)."""
+        """:math:`r` of positions ``(N, 3)``, shape (N, 1).
+
+        Parameters
+        ----------
+        positions : array_like, shape (N, 3)
+            Points, the unit of the axis centre (the dump's length unit).
+
+        Returns
+        -------
+        ndarray, shape (N, 1)
+            Same unit.
+        """
         return self.radius(positions)[:, None]
 
     @staticmethod
     def axial_length(box) -> float:
-        """:math:`L_z`, the box height the fields are averaged over, length units."""
+        """:math:`L_z`, the box height the fields are averaged over, length units.
+
+        Parameters
+        ----------
+        box : array_like, shape (3, 2)
+            Lower and upper box bounds per axis.
+
+        Returns
+        -------
+        float
+        """
         return float(_box_lengths(box)[2])
 
     def cell_volumes(self, edges: Sequence[np.ndarray], box) -> np.ndarray:
-        """Shell volumes :math:`\\pi\\,\\Delta(r^2)\\, L_z`, shape (n_r,)."""
+        """Shell volumes :math:`\\pi\\,\\Delta(r^2)\\, L_z`, shape (n_r,).
+
+        Parameters
+        ----------
+        edges : sequence of one ndarray
+            Increasing radial edges, the dump's length unit.
+        box : array_like, shape (3, 2)
+            Box bounds (for :math:`L_z`), same unit.
+
+        Returns
+        -------
+        ndarray, shape (n_r,)
+            Volumes in that unit cubed.
+        """
         (r_edges,) = edges
         r_edges = np.clip(np.asarray(r_edges, dtype=float), 0.0, None)
         return np.pi * np.diff(r_edges**2) * self.axial_length(box)
@@ -345,12 +513,36 @@ class RZCoordinates(_Cylindrical):
     names = ("r", "z")
 
     def map(self, positions) -> np.ndarray:
-        """:math:`(r, z)` of positions ``(N, 3)``, shape (N, 2)."""
+        """:math:`(r, z)` of positions ``(N, 3)``, shape (N, 2).
+
+        Parameters
+        ----------
+        positions : array_like, shape (N, 3)
+            Points, the unit of the axis centre (the dump's length unit).
+
+        Returns
+        -------
+        ndarray, shape (N, 2)
+            Same unit.
+        """
         pos = np.asarray(positions, dtype=float).reshape(-1, 3)
         return np.column_stack([self.radius(pos), pos[:, 2]])
 
     def cell_volumes(self, edges: Sequence[np.ndarray], box=None) -> np.ndarray:
-        """Ring volumes :math:`\\pi\\,\\Delta(r^2)\\,\\Delta z`, shape (n_r, n_z)."""
+        """Ring volumes :math:`\\pi\\,\\Delta(r^2)\\,\\Delta z`, shape (n_r, n_z).
+
+        Parameters
+        ----------
+        edges : sequence of two ndarray
+            Increasing edges in :math:`r` and in :math:`z`, the dump's length unit.
+        box : optional
+            Unused (accepted for the common signature).
+
+        Returns
+        -------
+        ndarray, shape (n_r, n_z)
+            Volumes in that unit cubed.
+        """
         r_edges, z_edges = (np.asarray(e, dtype=float) for e in edges)
         r_edges = np.clip(r_edges, 0.0, None)
         return np.outer(np.pi * np.diff(r_edges**2), np.diff(z_edges))

@@ -243,8 +243,9 @@ def particle_frames(paths: Iterable[str | os.PathLike], dt: float | None = None,
     paths : iterable of str or os.PathLike
         Dumps of any kind.
     dt : float, optional
-        Time step.
+        Time step: simulation time per timestep, in the dump's time unit.
     t_window : (float, float), optional
+        ``(lo, hi)``, simulation time from the first frame, same unit.
     **from_dump
         Passed to :meth:`ParticleFrame.from_dump` (``stress_compute``, ``density``).
 

@@ -110,7 +110,25 @@ class BinaryScanner:
 
     # -- frames --------------------------------------------------------------
     def header(self, pos: int, frame: int) -> _BinaryHeader:
-        """Parse the frame starting at byte ``pos`` and check its chunks fit in the file."""
+        """Parse the frame starting at byte ``pos`` and check its chunks fit in the file.
+
+        Parameters
+        ----------
+        pos : int
+            Byte offset of the frame's start.
+        frame : int
+            0-based index of the frame (the byte order is detected at frame 0).
+
+        Returns
+        -------
+        _BinaryHeader
+
+        Raises
+        ------
+        DumpError
+            If the header is truncated or corrupted, or its chunks run past the
+            end of the file.
+        """
         start = pos
         if frame == 0:
             self._detect_order()
@@ -227,6 +245,15 @@ class BinaryScanner:
         """The frame's per-atom values, shape ``(natoms, size_one)``, in file order.
 
         A view of the buffer when there is a single chunk, else a copy.
+
+        Parameters
+        ----------
+        h : _BinaryHeader
+            A header of this buffer (:meth:`header`).
+
+        Returns
+        -------
+        ndarray of float64, shape (natoms, size_one)
         """
         dtype = np.dtype(self.order + "f8")
         parts = [np.frombuffer(self.buf, dtype=dtype, count=n, offset=off) for off, n in h.chunks if n]

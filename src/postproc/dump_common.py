@@ -28,7 +28,19 @@ Select = Callable[[int], bool]
 
 
 def boundary_string(codes: Sequence[int] | Sequence[str]) -> str:
-    """Turn six lo/hi boundary letters into LAMMPS ``boundary`` style, e.g. ``"p p fs"``."""
+    """Turn six lo/hi boundary letters into LAMMPS ``boundary`` style, e.g. ``"p p fs"``.
+
+    Parameters
+    ----------
+    codes : sequence of int or sequence of str
+        Six codes ``xlo xhi ylo yhi zlo zhi``: binary-dump integers (0 p, 1 f, 2 s,
+        3 m) or letters.
+
+    Returns
+    -------
+    str
+        One word per dimension: its letter, or the two letters when lo and hi differ.
+    """
     letters = [c if isinstance(c, str) else _BOUNDARY_LETTERS[c] for c in codes]
     dims = []
     for lo, hi in zip(letters[0::2], letters[1::2]):
@@ -116,7 +128,30 @@ def dump_format(path: str | os.PathLike) -> str:
 
 def column_picks(path: str, frame: int, names: Sequence[str], columns: Sequence[str] | None,
            byte: int | None = None) -> list[int]:
-    """Indices of the requested columns, in the requested order."""
+    """Indices of the requested columns, in the requested order.
+
+    Parameters
+    ----------
+    path : str
+        The dump, to name in the message.
+    frame : int
+        0-based frame index, to name in the message.
+    names : sequence of str
+        The frame's column names, in file order.
+    columns : sequence of str or None
+        The columns wanted; None for all, in file order.
+    byte : int, optional
+        Byte offset of the frame, for the error.
+
+    Returns
+    -------
+    list of int
+
+    Raises
+    ------
+    MissingColumnsError
+        If a wanted column is not among ``names``.
+    """
     if columns is None:
         return list(range(len(names)))
     index = {name: i for i, name in enumerate(names)}
@@ -128,7 +163,24 @@ def column_picks(path: str, frame: int, names: Sequence[str], columns: Sequence[
 
 
 def columns_sorted(data: np.ndarray, names: Sequence[str], picks: Sequence[int]) -> dict[str, np.ndarray]:
-    """Copy the picked columns of ``data`` into contiguous float64 arrays sorted by ``id``."""
+    """Copy the picked columns of ``data`` into contiguous float64 arrays sorted by ``id``.
+
+    Parameters
+    ----------
+    data : ndarray, shape (natoms, n_columns)
+        The frame's values in file order.
+    names : sequence of str
+        Column names of ``data``.
+    picks : sequence of int
+        Indices of the columns to copy (:func:`column_picks`).
+
+    Returns
+    -------
+    dict of str to ndarray
+        One float64 array of length natoms per picked column, by name, with the
+        atoms in order of ``id`` when that column exists (a stable sort, skipped
+        when already increasing).
+    """
     natoms = data.shape[0]
     order = None
     if "id" in names:

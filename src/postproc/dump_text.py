@@ -58,6 +58,17 @@ class Lines:
             raise StreamError(f"the compressed stream is corrupted ({exc})", False) from None
 
     def readline(self) -> bytes:
+        """The next line (with its end of line), or ``b""`` at the end of the stream.
+
+        Returns
+        -------
+        bytes
+
+        Raises
+        ------
+        StreamError
+            When the gzip stream ends early or is corrupted.
+        """
         line = self._guard(self.fh.readline)
         if line:
             self.lineno += 1
@@ -65,6 +76,22 @@ class Lines:
         return line
 
     def lines(self, n: int) -> list[bytes]:
+        """The next ``n`` lines, fewer at the end of the stream.
+
+        Parameters
+        ----------
+        n : int
+            Lines wanted.
+
+        Returns
+        -------
+        list of bytes
+
+        Raises
+        ------
+        StreamError
+            When the gzip stream ends early or is corrupted.
+        """
         lines = self._guard(lambda: list(itertools.islice(self.fh, n)))
         self.lineno += len(lines)
         self.pos += sum(map(len, lines))

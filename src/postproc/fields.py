@@ -250,6 +250,17 @@ class FieldAccumulator(ConcludedResult):
             comes from them (module docstring), else from the frame's
             ``contact_stress_volume``. The choice made on the first frame holds
             for the whole average.
+
+        Raises
+        ------
+        RuntimeError
+            Before :meth:`prepare`, or after :meth:`conclude`.
+        ValueError
+            If the frame lacks what the first frame had (spins, per-atom stress,
+            contacts, types), has a type not in ``species``, or its contacts do not
+            match it (another step, no ids).
+        KeyError
+            If a contact names an id absent from the frame.
         """
         if not self._prepared:
             raise RuntimeError("FieldAccumulator.accumulate() called before prepare()")
@@ -286,6 +297,11 @@ class FieldAccumulator(ConcludedResult):
             docstring; the block errors alone are in :attr:`block_errors`).
             Velocity, spin and temperature are NaN in nodes that never held
             mass.
+
+        Raises
+        ------
+        RuntimeError
+            Before :meth:`prepare`, or before any frame was accumulated.
         """
         if not self._prepared:
             raise RuntimeError("FieldAccumulator.conclude() called before prepare()")

@@ -178,6 +178,19 @@ def field_columns(field: str, components: Sequence[str] = VECTOR) -> list[str]:
     """Output column names of one field, e.g. ``u`` -> ``u_x, u_y, u_z``.
 
     ``components`` names the basis (``("r", "t", "z")`` for ``rz`` fields).
+
+    Parameters
+    ----------
+    field : str
+        One of :data:`ALL_FIELDS`.
+    components : sequence of str
+        Names of the three components.
+
+    Returns
+    -------
+    list of str
+        Three columns for a vector (``u``, ``Omega``), six for a stress in the
+        order xx yy zz xy xz yz, else the field's own name.
     """
     if field in ("u", "Omega"):
         return [f"{field}_{c}" for c in components]
@@ -187,7 +200,22 @@ def field_columns(field: str, components: Sequence[str] = VECTOR) -> list[str]:
 
 
 def species_columns(field: str, species_id: int, components: Sequence[str] = VECTOR) -> list[str]:
-    """Columns of a species partial, e.g. ``("sigmak", 3)`` -> ``sigmak_s3_xx ...``."""
+    """Columns of a species partial, e.g. ``("sigmak", 3)`` -> ``sigmak_s3_xx ...``.
+
+    Parameters
+    ----------
+    field : str
+        One of :data:`SPECIES_FIELDS`.
+    species_id : int
+        The particle type id.
+    components : sequence of str
+        Names of the three components.
+
+    Returns
+    -------
+    list of str
+        Six columns for ``sigmak``, else ``<field>_s<id>``.
+    """
     if field == "sigmak":
         return [f"sigmak_s{species_id}_{components[a]}{components[b]}" for a, b in _PAIRS]
     return [f"{field}_s{species_id}"]
@@ -212,7 +240,35 @@ def _trace3(tensor: np.ndarray) -> np.ndarray:
 def derive(mean: dict[str, np.ndarray], fields: Sequence[str], node_volumes,
             components: Sequence[str] = VECTOR, species: Sequence[dict[str, np.ndarray]] = (),
             species_ids: Sequence[int] = ()) -> dict[str, np.ndarray]:
-    """Fields from frame-averaged primitive densities (see module docstring)."""
+    """Fields from frame-averaged primitive densities (see module docstring).
+
+    Units follow the dump's: with its length, mass and time units L, M and τ,
+    ``n`` is a count, ``phi`` dimensionless, ``rho`` M/L^3, ``u`` L/τ, ``Omega``
+    1/τ (the dump's angular velocity), ``T`` M L^2/τ^2 (an energy per
+    particle), stresses and pressures M/(L τ^2).
+
+    Parameters
+    ----------
+    mean : dict of str to ndarray, shape (n_nodes, width)
+        The averaged densities :math:`\\overline{\\sum_i w_{in} q_i}` of the
+        primitives the fields need, by name (:data:`PRIMITIVES`; width 1, 3 or
+        6), components in the basis of ``components``.
+    fields : sequence of str
+        Fields to derive, from :data:`ALL_FIELDS` (the callers check the names).
+    node_volumes : ndarray, shape (n_nodes,)
+        Volume attributed to each node, for ``n``.
+    components : sequence of str
+        Names of the three vector components.
+    species : sequence of dict of str to ndarray
+        Per species, its averaged primitive densities (as ``mean``).
+    species_ids : sequence of int
+        The type id of each entry of ``species``.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n_nodes,)
+        One array per column (:func:`field_columns`, :func:`species_columns`).
+    """
     out: dict[str, np.ndarray] = {}
     if {"sigmak", "sigma", "T", "pk", "p"} & set(fields):
         kinetic = _kinetic_stress(mean["mass"], mean["momentum"], mean["momentum_flux"])

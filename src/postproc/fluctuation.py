@@ -53,15 +53,30 @@ class FluctuationAccumulator:
         self.axes = tuple(np.asarray(a, dtype=float) for a in kernel.nodes)
 
     def prepare(self) -> None:
+        """Start a new average (the inner accumulator's :meth:`~postproc.fields.FieldAccumulator.prepare`)."""
         self.inner.prepare()
 
     @property
     def n_frames(self) -> int:
+        """Frames accumulated since :meth:`prepare`."""
         sums = self.inner._sums
         return 0 if sums is None else sums.n_frames
 
     def mean_velocity(self, frame) -> tuple[np.ndarray, np.ndarray]:
-        """``(u at the nodes (n_nodes, 3), u at each particle (N, 3))`` of one frame, local basis."""
+        """``(u at the nodes (n_nodes, 3), u at each particle (N, 3))`` of one frame, local basis.
+
+        Parameters
+        ----------
+        frame : ParticleFrame
+            Positions, velocities and masses in the dump's units.
+
+        Returns
+        -------
+        u_nodes : ndarray, shape (n_nodes, 3)
+            :math:`\\mathbf p/\\rho` at the nodes (0 where no mass), the dump's velocity unit.
+        u_at : ndarray, shape (N, 3)
+            Linearly interpolated to each particle (clipped to the node axes), same unit.
+        """
         c = self.coordinates
         local = frame.velocity if c.cartesian else c.local_vectors(frame.position, frame.velocity)
         points = c.points(frame)
@@ -76,7 +91,14 @@ class FluctuationAccumulator:
         return u_nodes, u_at
 
     def accumulate(self, frame) -> None:
-        """Add one frame: its particles' velocities relative to the frame's local mean."""
+        """Add one frame: its particles' velocities relative to the frame's local mean.
+
+        Parameters
+        ----------
+        frame : ParticleFrame
+            The frame (dump units); its velocities minus the local mean, in Cartesian
+            components, go to the inner :class:`~postproc.fields.FieldAccumulator`.
+        """
         from dataclasses import replace
 
         _, u_local = self.mean_velocity(frame)

@@ -123,6 +123,7 @@ class DumpFrame:
 
     @property
     def natoms(self) -> int:
+        """Number of atoms in the frame (the length of its columns; 0 without columns)."""
         return len(next(iter(self.columns.values()))) if self.columns else 0
 
 
@@ -222,8 +223,27 @@ class ImpossibleValues:
 
     @staticmethod
     def first(columns: dict[str, np.ndarray]) -> tuple[int, str, int]:
-        """The first offending row of ``columns`` (``nonfinite`` or ``nonpositive``), its column
-        (the first of that row in column order) and the number of offending rows."""
+        """The first offending row of ``columns``, its column and the number of offending rows.
+
+        Parameters
+        ----------
+        columns : dict of str to ndarray of bool, shape (N,)
+            ``nonfinite`` or ``nonpositive``; at least one row must be True.
+
+        Returns
+        -------
+        row : int
+            The first offending row.
+        column : str
+            The first of that row's offending columns, in column order.
+        count : int
+            Rows offending in any column.
+
+        Raises
+        ------
+        IndexError
+            If no row offends.
+        """
         rows = np.logical_or.reduce(list(columns.values()))
         k = int(np.flatnonzero(rows)[0])
         return k, next(c for c, bad in columns.items() if bad[k]), int(np.count_nonzero(rows))
@@ -291,18 +311,26 @@ def _missing_message(step: int, lacking: Sequence[str], names: Sequence[str]) ->
 class ParticleFrame:
     """Physical per-particle arrays of one frame.
 
+    The dump's units throughout (LAMMPS ``units``: m, kg, s in SI dumps; the
+    reduced units of an ``lj`` dump); the dump's ``units`` is not read here.
+
     Attributes
     ----------
     timestep : int
     box : ndarray, shape (3, 2)
+        Lower and upper box bounds per dimension, length units.
     position : ndarray, shape (N, 3)
+        Particle centres, length units (m in SI dumps).
     velocity : ndarray, shape (N, 3)
+        Velocities, length per time unit.
     mass : ndarray, shape (N,)
+        Masses, mass units.
     radius : ndarray, shape (N,)
+        Radii, length units.
     omega : ndarray, shape (N, 3) or None
-        Angular velocity, when the dump has spin columns.
+        Angular velocity, radians per time unit, when the dump has spin columns.
     contact_stress_volume : ndarray, shape (N, 6) or None
-        Per-particle contact stress times volume,
+        Per-particle contact stress times volume (force times length),
         :math:`\\tfrac12\\sum_j F_{ij} x_{ij}` in the order xx, yy, zz, xy, xz, yz,
         compressive positive (the negative of LAMMPS ``compute stress/atom NULL pair``).
     type : ndarray, shape (N,) or None
@@ -353,8 +381,9 @@ class ParticleFrame:
             ID of the ``compute stress/atom NULL pair`` whose ``c_<id>[1..6]``
             columns give :attr:`contact_stress_volume`.
         density : float, optional
-            Particle density, used for the mass :math:`\\rho \\tfrac43 \\pi r^3`
-            when the dump has no ``mass`` column (a ``mass`` column wins).
+            Particle density (mass per volume in the dump's units), used for the
+            mass :math:`\\rho \\tfrac43 \\pi r^3` when the dump has no ``mass``
+            column (a ``mass`` column wins).
 
         Returns
         -------

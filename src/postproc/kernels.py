@@ -64,14 +64,19 @@ def channel_bin_edges(
     walls : (float, float)
         Wall positions :math:`(x_0, x_0 + W)`, length units.
     bin_width : float
-        Target interior bin width :math:`d`.
+        Target interior bin width :math:`d`, same unit.
     wall_bin_width : float
-        Width of each wall bin.
+        Width of each wall bin, same unit.
 
     Returns
     -------
     ndarray, shape (n + 3,)
-        Increasing edges from ``walls[0]`` to ``walls[1]``.
+        Increasing edges from ``walls[0]`` to ``walls[1]``, same unit.
+
+    Raises
+    ------
+    ValueError
+        If a bin width is not positive, or the two wall bins fill the channel.
     """
     lo, hi = (float(w) for w in walls)
     interior = (hi - lo) - 2.0 * wall_bin_width
@@ -114,10 +119,27 @@ class HeavisideBins:
 
     @property
     def n_nodes(self) -> int:
+        """Number of bins, the product of the bin counts along each coordinate."""
         return int(np.prod(self.shape))
 
     def node_columns(self, coordinates) -> dict[str, np.ndarray]:
-        """Bin centre ``<c>`` and bounds ``<c>_lo``, ``<c>_hi`` for each coordinate ``c``."""
+        """Bin centre ``<c>`` and bounds ``<c>_lo``, ``<c>_hi`` for each coordinate ``c``.
+
+        Parameters
+        ----------
+        coordinates : CartesianCoordinates, RCoordinates or RZCoordinates
+            Gives the column names; one per axis of the bins.
+
+        Returns
+        -------
+        dict of str to ndarray, shape (n_nodes,)
+            In the unit of the edges (the dump's length unit), bins in C order.
+
+        Raises
+        ------
+        ValueError
+            If the coordinates resolve another number of axes than the bins have.
+        """
         check_dimension(coordinates, len(self.edges))
         centres = grid_columns(coordinates.names, [0.5 * (e[1:] + e[:-1]) for e in self.edges])
         lows = grid_columns(coordinates.names, [e[:-1] for e in self.edges])
@@ -128,12 +150,49 @@ class HeavisideBins:
         return columns
 
     def node_volumes(self, coordinates, box) -> np.ndarray:
-        """Bin volumes :math:`V_n` from the coordinate system's cell measure."""
+        """Bin volumes :math:`V_n` from the coordinate system's cell measure.
+
+        Parameters
+        ----------
+        coordinates : CartesianCoordinates, RCoordinates or RZCoordinates
+        box : array_like, shape (3, 2)
+            Box bounds of the frame, the dump's length unit (the measure of the
+            unresolved axes).
+
+        Returns
+        -------
+        ndarray, shape (n_nodes,)
+            That unit cubed.
+
+        Raises
+        ------
+        ValueError
+            If the coordinates resolve another number of axes than the bins have.
+        """
         check_dimension(coordinates, len(self.edges))
         return np.asarray(coordinates.cell_volumes(self.edges, box), dtype=float).ravel()
 
     def assign(self, points, coordinates, box) -> Assignment:
-        """Assign each particle centre to its bin with weight :math:`1/V_n`."""
+        """Assign each particle centre to its bin with weight :math:`1/V_n`.
+
+        Parameters
+        ----------
+        points : array_like, shape (N, ndim)
+            Particle coordinates in the space of ``coordinates``, the unit of the edges.
+        coordinates : CartesianCoordinates, RCoordinates or RZCoordinates
+        box : array_like, shape (3, 2)
+            Box bounds of the frame, same unit.
+
+        Returns
+        -------
+        Assignment
+            One pair per particle inside the bins; weights in 1/volume.
+
+        Raises
+        ------
+        ValueError
+            If the coordinates resolve another number of axes than the bins have.
+        """
         points = np.asarray(points, dtype=float).reshape(len(points), -1)
         check_dimension(coordinates, len(self.edges))
         inside = np.ones(len(points), dtype=bool)
@@ -154,6 +213,23 @@ class HeavisideBins:
 
         Always :func:`deposit_by_assignment` (``method`` is accepted for symmetry
         with :meth:`Gaussian.deposit`; ``"compiled"`` is refused).
+
+        Parameters
+        ----------
+        points, values, coordinates, box, groups, n_groups
+            As for :func:`deposit_by_assignment`.
+        method : str
+            Any value but ``"compiled"`` (refused) gives the numpy deposit.
+
+        Returns
+        -------
+        ndarray, shape (n_groups, n_nodes, K)
+            Densities: the unit of ``values`` per volume.
+
+        Raises
+        ------
+        ValueError
+            For ``method="compiled"``, or groups or coordinates that do not fit.
         """
         if method == "compiled":
             raise ValueError("Heaviside bins have no compiled deposit")

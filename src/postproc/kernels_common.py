@@ -37,7 +37,23 @@ class Assignment:
 
 
 def as_axes(edges_or_nodes) -> tuple[np.ndarray, ...]:
-    """Normalise one array or a sequence of arrays into a tuple of strictly increasing 1D axes."""
+    """Normalise one array or a sequence of arrays into a tuple of strictly increasing 1D axes.
+
+    Parameters
+    ----------
+    edges_or_nodes : array_like or sequence of array_like
+        One axis (an array, or a sequence of numbers), or one axis per coordinate.
+
+    Returns
+    -------
+    tuple of ndarray
+        Float arrays, in the unit given.
+
+    Raises
+    ------
+    ValueError
+        If an axis is not 1-D, has fewer than two values or does not increase strictly.
+    """
     if isinstance(edges_or_nodes, np.ndarray) or np.isscalar(edges_or_nodes[0]):
         axes = (edges_or_nodes,)
     else:
@@ -50,6 +66,19 @@ def as_axes(edges_or_nodes) -> tuple[np.ndarray, ...]:
 
 
 def check_dimension(coordinates, ndim: int) -> None:
+    """Refuse coordinates that resolve another number of axes than the kernel's ``ndim``.
+
+    Parameters
+    ----------
+    coordinates : CartesianCoordinates, RCoordinates or RZCoordinates
+    ndim : int
+        Axes of the kernel's grid.
+
+    Raises
+    ------
+    ValueError
+        If ``len(coordinates.names) != ndim``.
+    """
     if len(coordinates.names) != ndim:
         raise ValueError(
             f"kernel has {ndim} axes but coordinates {coordinates.kind!r} have "
@@ -58,7 +87,20 @@ def check_dimension(coordinates, ndim: int) -> None:
 
 
 def grid_columns(names: Sequence[str], axes: Sequence[np.ndarray]) -> list[np.ndarray]:
-    """Flattened C-ordered meshgrid of the axes."""
+    """Flattened C-ordered meshgrid of the axes.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Coordinate names (unused: the columns come in the order of ``axes``).
+    axes : sequence of ndarray
+        Node (or edge) values per coordinate, any unit.
+
+    Returns
+    -------
+    list of ndarray
+        One array of ``prod(len(a))`` values per axis, the last axis fastest.
+    """
     return [g.ravel() for g in np.meshgrid(*axes, indexing="ij")]
 
 
@@ -82,11 +124,13 @@ def deposit_by_assignment(kernel, points, values, coordinates, box, groups=None,
     ----------
     kernel : HeavisideBins, Gaussian or Lucy
     points : array_like, shape (N, ndim)
-        Particle coordinates in the space of ``coordinates``.
+        Particle coordinates in the space of ``coordinates``, in the unit of the
+        kernel's nodes or edges (the dump's length unit).
     values : array_like, shape (N, K) or (N,)
-        Per-particle quantities :math:`q_{ik}`.
+        Per-particle quantities :math:`q_{ik}`, any units.
     coordinates : CartesianCoordinates, RCoordinates or RZCoordinates
     box : array_like, shape (3, 2)
+        Box bounds of the frame, same length unit.
     groups : array_like of int, shape (N,), optional
         Group of each particle in ``[0, n_groups)``, e.g. its species index;
         None puts every particle in group 0.
@@ -95,6 +139,13 @@ def deposit_by_assignment(kernel, points, values, coordinates, box, groups=None,
     Returns
     -------
     ndarray, shape (n_groups, n_nodes, K)
+        Densities: the unit of ``values`` per volume.
+
+    Raises
+    ------
+    ValueError
+        If ``groups`` is not ``N`` integers in ``[0, n_groups)``, or the
+        coordinates do not fit the kernel.
     """
     points = np.asarray(points, dtype=float).reshape(len(points), -1)
     values = np.asarray(values, dtype=float).reshape(len(points), -1)
@@ -112,6 +163,27 @@ def deposit_by_assignment(kernel, points, values, coordinates, box, groups=None,
 
 
 def check_groups(groups, n: int, n_groups: int):
+    """Check the group of each particle for a deposit.
+
+    Parameters
+    ----------
+    groups : array_like of int, shape (n,), or None
+        Group of each particle.
+    n : int
+        Number of particles.
+    n_groups : int
+        Number of groups, at least 1.
+
+    Returns
+    -------
+    ndarray of int64, shape (n,), or None
+        ``groups`` as int64; None when ``groups`` is None.
+
+    Raises
+    ------
+    ValueError
+        If ``n_groups < 1``, or ``groups`` is not ``n`` integers in ``[0, n_groups)``.
+    """
     if int(n_groups) < 1:
         raise ValueError(f"n_groups must be at least 1, not {n_groups}")
     if groups is None:

@@ -155,11 +155,43 @@ class RadialKernel:
         self.shape = tuple(len(a) for a in self.nodes)
 
     def profile(self, d2) -> np.ndarray:
-        """Unnormalised radial profile :math:`f` at squared distances ``d2`` (below :math:`c^2`)."""
+        """Unnormalised radial profile :math:`f` at squared distances ``d2`` (below :math:`c^2`).
+
+        Parameters
+        ----------
+        d2 : ndarray
+            Squared distances from the particle centre, in the cutoff's unit squared.
+
+        Returns
+        -------
+        ndarray
+            Dimensionless, the shape of ``d2``.
+
+        Raises
+        ------
+        NotImplementedError
+            In this base class (the subclasses define it).
+        """
         raise NotImplementedError
 
     def normalisation_in(self, dim: int) -> float:
-        """:math:`Z_D`, the integral of :math:`f` over :math:`D`-dimensional space (D = 1, 2, 3)."""
+        """:math:`Z_D`, the integral of :math:`f` over :math:`D`-dimensional space (D = 1, 2, 3).
+
+        Parameters
+        ----------
+        dim : int
+            D, the dimension of the space integrated over.
+
+        Returns
+        -------
+        float
+            In the cutoff's unit to the power D.
+
+        Raises
+        ------
+        NotImplementedError
+            In this base class (the subclasses define it).
+        """
         raise NotImplementedError
 
     @property
@@ -169,21 +201,79 @@ class RadialKernel:
 
     @property
     def n_nodes(self) -> int:
+        """Number of nodes, the product of the node counts along each coordinate."""
         return int(np.prod(self.shape))
 
     def node_columns(self, coordinates) -> dict[str, np.ndarray]:
-        """Node position ``<c>`` for each coordinate ``c``."""
+        """Node position ``<c>`` for each coordinate ``c``.
+
+        Parameters
+        ----------
+        coordinates : CartesianCoordinates, RCoordinates or RZCoordinates
+            Gives the column names; one per axis of the grid.
+
+        Returns
+        -------
+        dict of str to ndarray, shape (n_nodes,)
+            In the unit of the nodes (the dump's length unit), nodes in C order.
+
+        Raises
+        ------
+        ValueError
+            If the coordinates resolve another number of axes than the grid has.
+        """
         check_dimension(coordinates, len(self.nodes))
         return dict(zip(coordinates.names, grid_columns(coordinates.names, self.nodes)))
 
     def node_volumes(self, coordinates, box) -> np.ndarray:
-        """Volumes of the grid cells around the nodes (between midpoints)."""
+        """Volumes of the grid cells around the nodes (between midpoints).
+
+        The cells extend half a spacing beyond the first and last nodes.
+
+        Parameters
+        ----------
+        coordinates : CartesianCoordinates, RCoordinates or RZCoordinates
+        box : array_like, shape (3, 2)
+            Box bounds of the frame, the unit of the nodes (the measure of the
+            unresolved axes).
+
+        Returns
+        -------
+        ndarray, shape (n_nodes,)
+            That unit cubed.
+
+        Raises
+        ------
+        ValueError
+            If the coordinates resolve another number of axes than the grid has.
+        """
         check_dimension(coordinates, len(self.nodes))
         edges = tuple(_cell_edges(a) for a in self.nodes)
         return np.asarray(coordinates.cell_volumes(edges, box), dtype=float).ravel()
 
     def assign(self, points, coordinates, box) -> Assignment:
-        """Weights of every particle at every node within the cutoff."""
+        """Weights of every particle at every node within the cutoff.
+
+        Parameters
+        ----------
+        points : array_like, shape (N, ndim)
+            Particle coordinates in the space of ``coordinates``, the unit of the nodes
+            and the cutoff.
+        coordinates : CartesianCoordinates, RCoordinates or RZCoordinates
+        box : array_like, shape (3, 2)
+            Box bounds of the frame, same unit.
+
+        Returns
+        -------
+        Assignment
+            Weights in 1/volume (:class:`RadialKernel` gives them per coordinate system).
+
+        Raises
+        ------
+        ValueError
+            If the coordinates resolve another number of axes than the grid has, or
+            are of an unknown kind.
+        """
         points = np.asarray(points, dtype=float).reshape(len(points), -1)
         check_dimension(coordinates, len(self.nodes))
         if coordinates.kind == "cartesian":
@@ -201,6 +291,25 @@ class RadialKernel:
 
         :func:`deposit_by_assignment` (``method`` "auto" or "numpy";
         "compiled" is refused: only :class:`Gaussian` on ``rz`` has a compiled path).
+
+        Parameters
+        ----------
+        points, values, coordinates, box, groups, n_groups
+            As for :func:`deposit_by_assignment`.
+        method : {"auto", "compiled", "numpy"}
+        n_threads : int, optional
+            Unused (accepted for the signature of :meth:`Gaussian.deposit`).
+
+        Returns
+        -------
+        ndarray, shape (n_groups, n_nodes, K)
+            Densities: the unit of ``values`` per volume.
+
+        Raises
+        ------
+        ValueError
+            For ``method="compiled"`` or an unknown method, or groups or coordinates
+            that do not fit.
         """
         if method not in ("auto", "compiled", "numpy"):
             raise ValueError(f"method must be 'auto', 'compiled' or 'numpy', not {method!r}")
@@ -335,7 +444,18 @@ class Gaussian(RadialKernel):
         return kernel
 
     def profile(self, d2) -> np.ndarray:
-        """:math:`e^{-d^2/2w^2}`."""
+        """:math:`e^{-d^2/2w^2}`.
+
+        Parameters
+        ----------
+        d2 : ndarray
+            Squared distances, in the unit of ``width`` squared.
+
+        Returns
+        -------
+        ndarray
+            Dimensionless, the shape of ``d2``.
+        """
         return np.exp(-0.5 * d2 / self.width**2)
 
     def normalisation_in(self, dim: int) -> float:
@@ -347,6 +467,21 @@ class Gaussian(RadialKernel):
             Z_2 = 2\\pi w^2 (1 - e^{-s^2}), \\quad
             Z_3 = (2\\pi w^2)^{3/2}\\left[\\mathrm{erf}(s) - \\tfrac{2s}{\\sqrt\\pi}e^{-s^2}\\right],
             \\quad s = c / \\sqrt2 w
+
+        Parameters
+        ----------
+        dim : int
+            D: 1, 2 or 3.
+
+        Returns
+        -------
+        float
+            In the unit of ``width`` to the power D.
+
+        Raises
+        ------
+        ValueError
+            For another ``dim``.
         """
         w, c = self.width, self.cutoff
         s = c / (np.sqrt(2.0) * w)
@@ -371,6 +506,18 @@ class Gaussian(RadialKernel):
             spaced nodes, else numpy; ``compiled`` insists on it.
         n_threads : int, optional
             Threads of the compiled path (default: all numba threads).
+
+        Returns
+        -------
+        ndarray, shape (n_groups, n_nodes, K)
+            Densities: the unit of ``values`` per volume.
+
+        Raises
+        ------
+        ValueError
+            For an unknown method, ``method="compiled"`` where there is no compiled
+            path, ``rz`` points that are not (N, 2), or groups or coordinates that do
+            not fit.
         """
         if method not in ("auto", "compiled", "numpy"):
             raise ValueError(f"method must be 'auto', 'compiled' or 'numpy', not {method!r}")
@@ -468,12 +615,39 @@ class Lucy(RadialKernel):
         self.width = self.cutoff / (2.0 * np.sqrt(3.0))
 
     def profile(self, d2) -> np.ndarray:
-        """:math:`(1 + 3s)(1 - s)^3`, :math:`s = d/c`, zero for :math:`s \\ge 1`."""
+        """:math:`(1 + 3s)(1 - s)^3`, :math:`s = d/c`, zero for :math:`s \\ge 1`.
+
+        Parameters
+        ----------
+        d2 : ndarray
+            Squared distances, in the unit of the cutoff squared.
+
+        Returns
+        -------
+        ndarray
+            Dimensionless, the shape of ``d2``.
+        """
         s = np.minimum(np.sqrt(d2) / self.cutoff, 1.0)
         return (1.0 + 3.0 * s) * (1.0 - s) ** 3
 
     def normalisation_in(self, dim: int) -> float:
-        """:math:`Z_D`: :math:`4c/5`, :math:`\\pi c^2/5`, :math:`16\\pi c^3/105` for D = 1, 2, 3."""
+        """:math:`Z_D`: :math:`4c/5`, :math:`\\pi c^2/5`, :math:`16\\pi c^3/105` for D = 1, 2, 3.
+
+        Parameters
+        ----------
+        dim : int
+            D: 1, 2 or 3.
+
+        Returns
+        -------
+        float
+            In the unit of the cutoff to the power D.
+
+        Raises
+        ------
+        ValueError
+            For another ``dim``.
+        """
         if dim not in self._UNIT_NORMALISATION:
             raise ValueError(f"dimension must be 1, 2 or 3, not {dim}")
         return self._UNIT_NORMALISATION[dim] * self.cutoff**dim

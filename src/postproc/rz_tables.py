@@ -171,7 +171,19 @@ def _v_integrand(a, w):
 
 
 def table_arrays(C: float) -> dict:
-    """The arrays of :class:`postproc.cg_compiled.RZTables` for :math:`C` (its attributes but C)."""
+    """The arrays of :class:`postproc.cg_compiled.RZTables` for :math:`C` (its attributes but C).
+
+    Parameters
+    ----------
+    C : float
+        :math:`c^2 / 2\\sigma^2` of the kernel (dimensionless, > 0).
+
+    Returns
+    -------
+    dict
+        ``a_split``, ``far``, ``near_u``, ``near_v``, ``near_end`` and
+        ``near_step``, as :class:`postproc.cg_compiled.RZTables` documents them.
+    """
     a_split = max(float(C), 1.0)
     n_a = int(np.ceil(a_split / NEAR_ROW_SPACING))
     step = a_split / n_a

@@ -86,6 +86,13 @@ def cumulative_rate(t, m) -> tuple[float, float]:
     (about :math:`\\tfrac65 D/T` for a window of length T).  The ordinary
     residual-based error would be far too small for such a series.
 
+    Parameters
+    ----------
+    t : array_like, 1-D
+        Sample times, any time unit (non-finite pairs are dropped).
+    m : array_like, 1-D
+        The cumulative counter at ``t``, any unit (``W`` is in its unit per unit of ``t``).
+
     Returns
     -------
     W, W_se : float
@@ -157,6 +164,23 @@ def window_edges(t, window: float) -> np.ndarray:
     A trailing partial window is dropped; a series shorter than one window
     gives one window ``[t_0, t_0 + window]`` holding all of it.  Returns an
     empty array with fewer than two finite samples.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times, any unit.
+    window : float
+        Window length, same unit.
+
+    Returns
+    -------
+    ndarray
+        ``n_windows + 1`` edges, same unit.
+
+    Raises
+    ------
+    ValueError
+        If ``window`` is not positive.
     """
     if not window > 0:
         raise ValueError(f"window must be positive, got {window}")
@@ -170,7 +194,27 @@ def window_edges(t, window: float) -> np.ndarray:
 
 
 def window_masks(t, window: float):
-    """Yield ``(lo, hi, mask)`` per window of :func:`window_edges` (last window closed on the right)."""
+    """Yield ``(lo, hi, mask)`` per window of :func:`window_edges` (last window closed on the right).
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times, any unit; non-finite ones fall in no window.
+    window : float
+        Window length, same unit.
+
+    Yields
+    ------
+    lo, hi : float
+        The window's edges.
+    mask : ndarray of bool, shape (len(t),)
+        The samples in ``[lo, hi)``, ``[lo, hi]`` for the last window.
+
+    Raises
+    ------
+    ValueError
+        If ``window`` is not positive.
+    """
     t = np.asarray(t, dtype=float)
     edges = window_edges(t, window)
     n_win = len(edges) - 1
@@ -229,8 +273,24 @@ def rate_series(t, m, window: float) -> pd.DataFrame:
 
 
 def subwindow_slopes(t, m, t_start: float, t_end: float, n: int) -> np.ndarray:
-    """Least-squares slopes of ``m(t)`` in ``n`` equal sub-windows of ``[t_start, t_end]`` (closed; NaN where
-    a sub-window holds fewer than two samples)."""
+    """Least-squares slopes of ``m(t)`` in ``n`` equal sub-windows of ``[t_start, t_end]``.
+
+    The sub-windows are closed; NaN where a sub-window holds fewer than two samples.
+
+    Parameters
+    ----------
+    t, m : array_like, 1-D
+        Sample times (any unit) and the series at them (any unit).
+    t_start, t_end : float
+        The window, in the unit of ``t``.
+    n : int
+        Number of sub-windows.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Slopes, the unit of ``m`` per unit of ``t``.
+    """
     t = np.asarray(t, dtype=float)
     m = np.asarray(m, dtype=float)
     edges = np.linspace(t_start, t_end, int(n) + 1)
@@ -263,9 +323,10 @@ def steady_rate_errors(t, m, t_start: float, t_end: float, n_blocks: int = 4, n_
     Parameters
     ----------
     t, m : array_like
-        Sample times and the cumulative series.
+        Sample times and the cumulative series (any units: the rate is in the
+        unit of ``m`` per unit of ``t``).
     t_start, t_end : float
-        The window, e.g. from :func:`steady_window`.
+        The window, e.g. from :func:`steady_window`, in the unit of ``t``.
     n_blocks : int
         Number of blocks of the cross-check (at least 2); reduced when there
         are fewer than 3 samples per block.
@@ -324,6 +385,15 @@ def steady_rate(t, m, t_start: float, t_end: float, n_blocks: int = 4, n_series:
     sub-window slopes are finite, or with ``n_series=0``: the former
     error).  :func:`steady_rate_errors` also returns the block error,
     :math:`g` and the counts.
+
+    Parameters
+    ----------
+    t, m : array_like
+        Sample times (any unit) and the cumulative series (any unit).
+    t_start, t_end : float
+        The window, in the unit of ``t``.
+    n_blocks, n_series : int
+        As for :func:`steady_rate_errors`.
 
     Returns
     -------

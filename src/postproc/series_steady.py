@@ -19,6 +19,21 @@ import numpy as np
 def check_series(t, y, rel_tol: float, min_windows: int, name: str = "y") -> tuple[np.ndarray, np.ndarray]:
     """``t`` and ``y`` as equal-length 1-D float arrays, after checking them and the band settings.
 
+    Parameters
+    ----------
+    t, y : array_like
+        Sample times and values.
+    rel_tol : float
+        Relative half-width of the band.
+    min_windows : int
+        Shortest acceptable steady run.
+    name : str
+        The name of ``y`` in the message.
+
+    Returns
+    -------
+    t, y : ndarray of float, 1-D
+
     Raises
     ------
     ValueError
@@ -75,6 +90,20 @@ def running_median(y, usable, width: int) -> np.ndarray:
 
     Near the ends of a run the window shrinks symmetrically (the end values
     stay as they are), so a monotone ramp at the start is not pulled inwards.
+
+    Parameters
+    ----------
+    y : array_like, 1-D
+        Values, any unit.
+    usable : array_like of bool, shape (len(y),)
+        Which samples count; a False one ends a run.
+    width : int
+        Samples in the window (an even width acts as the next odd one).
+
+    Returns
+    -------
+    ndarray, shape (len(y),)
+        The unit of ``y``; NaN where not usable.
     """
     y = np.asarray(y, dtype=float)
     usable = np.asarray(usable, dtype=bool)
@@ -97,6 +126,18 @@ def longest_band_run(w, rel_tol: float) -> tuple[int, int]:
     queues of the running max and min find the longest run in O(n).  Among
     runs of equal length the one with the smallest max/min wins.  Returns
     ``(-1, -1)`` when no value is positive.
+
+    Parameters
+    ----------
+    w : array_like, 1-D
+        Values, any unit; a non-finite or non-positive one ends a run.
+    rel_tol : float
+        :math:`\\epsilon`, relative half-width of the band.
+
+    Returns
+    -------
+    i, j : int
+        First and last index of the run (inclusive).
     """
     w = np.asarray(w, dtype=float)
     best, best_key = (-1, -1), None
@@ -141,6 +182,19 @@ def scatter(y, usable=None) -> float:
     (the median absolute deviation, scaled to a standard deviation for
     Gaussian noise; isolated outliers do not inflate it).  NaN with fewer than
     two differences.
+
+    Parameters
+    ----------
+    y : array_like, 1-D
+        Values, any unit.
+    usable : array_like of bool, optional
+        Which samples count (default: the finite ones); a difference needs both
+        its samples usable.
+
+    Returns
+    -------
+    float
+        In the unit of ``y``.
     """
     y = np.asarray(y, dtype=float)
     usable = np.isfinite(y) if usable is None else np.asarray(usable, dtype=bool) & np.isfinite(y)
@@ -167,6 +221,22 @@ def block_size(sigma: float, level: float, rel_tol: float, smooth: int) -> int:
 
     .. math:: b = \\left\\lceil \\frac{1}{w}
         \\left(\\frac{2.5 \\cdot 1.2533\\,\\hat\\sigma}{\\epsilon |Y|}\\right)^2 \\right\\rceil \\ge 1 .
+
+    Parameters
+    ----------
+    sigma : float
+        :math:`\\hat\\sigma`, the sample-to-sample noise (:func:`scatter`).
+    level : float
+        :math:`Y`, the level of the series (its median), in the unit of ``sigma``.
+    rel_tol : float
+        :math:`\\epsilon`, relative half-width of the band.
+    smooth : int
+        :math:`w`, width of the running median (below 3: none).
+
+    Returns
+    -------
+    int
+        1 when ``sigma`` or ``level`` is not finite or ``level`` is 0.
     """
     if not (np.isfinite(sigma) and np.isfinite(level) and level != 0):
         return 1

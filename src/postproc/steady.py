@@ -117,10 +117,18 @@ def detect_steady_state(
         Absolute speed below which the channel is jammed, :math:`\\sqrt{g d_p}`.
     grid_step : float, optional
         Spacing of candidate start times; default ``window / 10``.
+    fluct_tol : float, optional
+        Tolerance on the relative fluctuation alone; default ``rel_tol``.
 
     Returns
     -------
     SteadyState
+
+    Raises
+    ------
+    ValueError
+        If ``t`` and ``u`` are not 1-D arrays of equal length, or ``window``,
+        ``rel_tol``, ``fluct_tol`` or ``grid_step`` is not positive.
     """
     t = np.asarray(t, dtype=float)
     u = np.asarray(u, dtype=float)
@@ -185,6 +193,12 @@ def block_average(x, n_blocks: int) -> tuple[float, float]:
     Returns
     -------
     mean, se : float
+        In the unit of ``x``.
+
+    Raises
+    ------
+    ValueError
+        If ``n_blocks`` is below 2 or above the number of samples.
     """
     x = np.asarray(x, dtype=float).ravel()
     n_blocks = int(n_blocks)

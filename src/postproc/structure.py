@@ -55,7 +55,17 @@ class BondOrder:
     l: int
 
     def solid_bonds(self, threshold: float = SOLID_BOND) -> np.ndarray:
-        """Number of solid-like bonds of each particle, :math:`d_l(i, j)` > ``threshold``."""
+        """Number of solid-like bonds of each particle, :math:`d_l(i, j)` > ``threshold``.
+
+        Parameters
+        ----------
+        threshold : float
+            A bond is solid-like when its :math:`d_l` exceeds it (:data:`SOLID_BOND`).
+
+        Returns
+        -------
+        ndarray of int, shape (N,)
+        """
         i, j = self.pairs[:, 0], self.pairs[:, 1]
         norm = np.linalg.norm(self.qlm, axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -67,7 +77,19 @@ class BondOrder:
         return counts
 
     def crystal_like(self, threshold: float = SOLID_BOND, min_bonds: int = CRYSTAL_BONDS) -> np.ndarray:
-        """True for each particle with at least ``min_bonds`` solid-like bonds."""
+        """True for each particle with at least ``min_bonds`` solid-like bonds.
+
+        Parameters
+        ----------
+        threshold : float
+            A bond is solid-like when its :math:`d_l` exceeds it (:data:`SOLID_BOND`).
+        min_bonds : int
+            Fewest solid-like bonds of a crystal-like particle (:data:`CRYSTAL_BONDS`).
+
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+        """
         return self.solid_bonds(threshold) >= min_bonds
 
 
@@ -77,12 +99,20 @@ def neighbour_pairs(position: np.ndarray, box: np.ndarray, periodic, cutoff: flo
     Parameters
     ----------
     position : ndarray, shape (N, 3)
+        Particle centres, any length unit.
     box : ndarray, shape (3, 2)
-        Lower and upper bound per axis.
+        Lower and upper bound per axis, same unit.
     periodic : sequence of 3 bool
         Which axes wrap (a wall-bounded axis does not).
     cutoff : float
         Neighbour distance, in the units of ``position``.
+
+    Returns
+    -------
+    pairs : ndarray of int, shape (P, 2)
+        Indices ``(i, j)`` of each pair, i < j.
+    separation : ndarray, shape (P, 3)
+        :math:`r_j - r_i`, minimum-imaged along the periodic axes, same unit.
     """
     pos = np.asarray(position, dtype=float)
     box = np.asarray(box, dtype=float)
@@ -109,6 +139,28 @@ def bond_order(position: np.ndarray, box: np.ndarray, periodic, cutoff: float, l
     """:math:`q_{lm}(i)` and :math:`q_l(i)` of every particle (module docstring).
 
     ``l`` must be even (then :math:`Y_{lm}(-\\hat r) = Y_{lm}(\\hat r)` and each pair counts once for both).
+
+    Parameters
+    ----------
+    position : ndarray, shape (N, 3)
+        Particle centres, any length unit.
+    box : ndarray, shape (3, 2)
+        Lower and upper bound per axis, same unit.
+    periodic : sequence of 3 bool
+        Which axes wrap.
+    cutoff : float
+        Neighbour distance, same unit.
+    l : int
+        Degree of the spherical harmonics, even.
+
+    Returns
+    -------
+    BondOrder
+
+    Raises
+    ------
+    ValueError
+        For an odd ``l``.
     """
     if l % 2:
         raise ValueError(f"l = {l}: only even l (the bond direction's sign then does not matter)")
@@ -140,6 +192,23 @@ def layering(coordinate: np.ndarray, length: float, spacing: tuple[float, float]
     over the whole numbers of layers :math:`n` whose spacing :math:`L/n` lies in ``spacing``
     (e.g. 0.8-1.2 particle diameters). S is 1 for perfect layers and about :math:`1/\\sqrt{N}`
     for points without order.
+
+    Parameters
+    ----------
+    coordinate : ndarray, shape (N,)
+        The points' coordinate along the axis, any length unit.
+    length : float
+        :math:`L`, the period of the axis (the box length), same unit.
+    spacing : tuple of (float, float)
+        Smallest and largest layer spacing to try, same unit.
+
+    Returns
+    -------
+    S : float
+        NaN without points; 0 when no whole number of layers fits ``spacing``.
+    wavelength : float
+        The layer spacing :math:`L/n` of the largest :math:`S`, same unit (NaN
+        when none).
     """
     z = np.asarray(coordinate, dtype=float)
     if len(z) == 0:

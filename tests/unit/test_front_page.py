@@ -192,7 +192,7 @@ def test_the_headline_table_has_one_row_per_headline_of_each_summary(records, pa
         assert row[0] == scene
         assert row[1] == overview.cut(c["quantity"], overview.QUANTITY_CHARS)
         assert c["quantity"].startswith(row[1].rstrip("…"))
-        assert row[3].split(" ± ")[0] in overview._fmt(c["ours"], c["error"], c.get("syst"))
+        assert row[3].split(" ± ")[0] in overview.format_with_errors(c["ours"], c["error"], c.get("syst"))
         assert row[5] == overview.short_verdict(c["verdict"]) and len(row[5]) <= 30
         assert c["verdict"].startswith(row[5].split(" (")[0])
     # every check is counted, and is in the validation section

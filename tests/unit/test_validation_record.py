@@ -60,10 +60,10 @@ def test_a_difference_the_measurement_choices_explain_is_not_called_n_sigma():
 
 
 def test_the_table_shows_stat_and_syst_and_old_records_without_syst():
-    assert validation._fmt(1.2964, 0.1031, 0.2412) == "1.30 ± 0.10 ± 0.24"
-    assert validation._fmt(1.2964, 0.1031, float("nan")) == "1.30 ± 0.10"
-    assert validation._fmt(1.2964, 0.1031) == "1.30 ± 0.10"
-    assert validation._fmt(1.2964, float("nan"), 0.02) == "1.296 ± – ± 0.020"
+    assert validation.format_with_errors(1.2964, 0.1031, 0.2412) == "1.30 ± 0.10 ± 0.24"
+    assert validation.format_with_errors(1.2964, 0.1031, float("nan")) == "1.30 ± 0.10"
+    assert validation.format_with_errors(1.2964, 0.1031) == "1.30 ± 0.10"
+    assert validation.format_with_errors(1.2964, float("nan"), 0.02) == "1.296 ± – ± 0.020"
 
 
 def _case(tmp_path, rel, cpu_s, overlap):

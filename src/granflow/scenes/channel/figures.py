@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 import granflow.scenes.channel.analysis as ch
-from granflow.plotting import MARKERS, _colour, _finish, _new_figure, _positive, _unavailable
+from granflow.plotting import MARKERS, _colour, _new_figure, _positive, _unavailable, finish
 
 #: Zone colours of the paper's figure 11 (plug is not sheared and not shown there).
 ZONE_COLOURS = {"wall": "red", "loose": "black", "dense": "saddlebrown", "plug": "0.6"}
@@ -87,7 +87,7 @@ def fig_velocity_profiles(cases: list[dict], path) -> Figure:
              title="(b) scaled velocity")
     ax_a.legend(fontsize=7)
     ax_b.legend(fontsize=7)
-    return _finish(fig, cases, path)
+    return finish(fig, cases, path)
 
 
 def fig_ratio_vs_phi(cases: list[dict], path) -> Figure:
@@ -108,7 +108,7 @@ def fig_ratio_vs_phi(cases: list[dict], path) -> Figure:
                     marker=MARKERS[i % len(MARKERS)], lw=0.8, capsize=2, label=f"W = {W:g} $d_p$")
     ax.set(xlabel=r"$\bar\phi$", ylabel=r"$u_{max}/u_{slip}$", title=r"ratio of centre and slip velocities")
     ax.legend(fontsize=8)
-    return _finish(fig, cases, path)
+    return finish(fig, cases, path)
 
 
 def fig_stress_profiles(cases: list[dict], path) -> Figure:
@@ -143,7 +143,7 @@ def fig_stress_profiles(cases: list[dict], path) -> Figure:
                        label=c["label"]) for i, c in enumerate(cases)]
     ax.legend(handles=handles + _zone_legend_handles(), fontsize=7, loc="best")
     ax.set_title("normal and shear stress (compressive positive)")
-    return _finish(fig, cases, path, right_in=0.9)
+    return finish(fig, cases, path, right_in=0.9)
 
 
 def _se(df, col: str) -> np.ndarray:
@@ -201,7 +201,7 @@ def fig_phi_shear_temperature(cases: list[dict], path) -> Figure:
     for ax in (ax_phi, ax_gd, ax_t, ax_p):
         ax.set_xlabel(r"$x/d_p$ (from the wall)")
     ax_phi.legend(handles=ax_phi.get_legend_handles_labels()[0] + _zone_legend_handles(), fontsize=7)
-    return _finish(fig, cases, path)
+    return finish(fig, cases, path)
 
 
 def fig_rheology(cases: list[dict], path, params: ch.MuIParameters = ch.JOP2015) -> Figure:
@@ -258,4 +258,4 @@ def fig_rheology(cases: list[dict], path, params: ch.MuIParameters = ch.JOP2015)
                            label=c["label"]) for i, c in enumerate(cases)]
     for ax in (ax_mu, ax_phi):
         ax.legend(handles=ax.get_legend_handles_labels()[0] + zone_handles + case_handles, fontsize=7)
-    return _finish(fig, cases, path)
+    return finish(fig, cases, path)

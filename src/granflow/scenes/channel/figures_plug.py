@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from granflow.plotting import MARKERS, _colour, _finish, _new_figure
+from granflow.plotting import MARKERS, _colour, _new_figure, finish
 from postproc.structure import Q6_FCC
 
 
@@ -49,4 +49,4 @@ def fig_steadiness_plug(cases: list[dict], path) -> Figure:
     c2.set(ylabel="crystal-like fraction of the plug (dashed)", ylim=(0.0, 1.0))
     a.legend(fontsize=7)
     b.legend(fontsize=7)
-    return _finish(fig, cases, path, right_in=0.75)
+    return finish(fig, cases, path, right_in=0.75)

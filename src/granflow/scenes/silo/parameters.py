@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from granflow.config import check_rung
-from granflow.contact import (Contact, ContactModel, TypePair, _model, contact_law, contact_time,
+from granflow.contact import (Contact, ContactModel, TypePair, contact_block_model, contact_law, contact_time,
                               damping_for_restitution, per_pair_model, restitution_contacts)
 from granflow.deck import Param, StepClock, _number, contact_law_context, contact_law_params, record_head, shared_si_params
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
@@ -125,7 +125,7 @@ def single_spring_model(scene: dict, rung: dict) -> tuple[ContactModel, list[dic
                          "k_n_eq10": hertz_stiffness(Y, a["radius"], b["radius"], a["mass"], b["mass"],
                                                      c["impact_velocity"])})
         contacts.append(Contact(f"r{a['type']}-wall", a["mass"], *contact_time(k_n, a["mass"], xi_n)))
-    return _model(c, k_n, xi_n, contacts), eq10
+    return contact_block_model(c, k_n, xi_n, contacts), eq10
 
 
 def beverloo_estimate(scene: dict, R: float) -> float:

@@ -74,7 +74,7 @@ JOP2015 = MuIParameters()
 
 
 # --------------------------------------------------------------------------- helpers
-def _field(df: pd.DataFrame, name: str) -> tuple[np.ndarray, np.ndarray]:
+def field_and_error(df: pd.DataFrame, name: str) -> tuple[np.ndarray, np.ndarray]:
     """Values and standard errors of column ``name``; NaN arrays when absent."""
     n = len(df)
     val = df[name].to_numpy(dtype=float) if name in df else np.full(n, np.nan)
@@ -86,15 +86,15 @@ def downward_speed(df: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     """Downward speed :math:`u = -u_y` and its standard error, :math:`\\sqrt{g d_p}`."""
     if "u_y" not in df:
         raise KeyError("profile has no u_y column; the channel analyses need the velocity")
-    u_y, se = _field(df, "u_y")
+    u_y, se = field_and_error(df, "u_y")
     return -u_y, se
 
 
-def _bin_width(df: pd.DataFrame) -> np.ndarray:
+def bin_widths(df: pd.DataFrame) -> np.ndarray:
     return (df["x_hi"] - df["x_lo"]).to_numpy(dtype=float)
 
 
-def _width_weighted_mean(values: np.ndarray, width: np.ndarray) -> float:
+def width_weighted_mean(values: np.ndarray, width: np.ndarray) -> float:
     ok = np.isfinite(values) & np.isfinite(width)
     if not ok.any() or width[ok].sum() <= 0:
         return float("nan")
@@ -184,9 +184,9 @@ def fold_profile(df: pd.DataFrame, W: float, odd_fields=None) -> pd.DataFrame:
               and pd.api.types.is_numeric_dtype(df[c])]
     for name in fields:
         sign = (-1 if name in odd else 1) if odd is not None else mirror_parity(name)
-        a, a_se = _field(df, name)
+        a, a_se = field_and_error(df, name)
         a, a_se = a[:half], a_se[:half]
-        b, b_se = _field(df, name)
+        b, b_se = field_and_error(df, name)
         b, b_se = sign * b[mirror], b_se[mirror]
         both = np.isfinite(a) & np.isfinite(b)
         val = np.where(both, 0.5 * (a + b), np.where(np.isfinite(a), a, b))
@@ -207,7 +207,7 @@ def fold_profile(df: pd.DataFrame, W: float, odd_fields=None) -> pd.DataFrame:
     return out.reset_index(drop=True)
 
 
-def _width(folded: pd.DataFrame, W: float | None) -> float:
+def channel_width(folded: pd.DataFrame, W: float | None) -> float:
     if W is not None:
         return float(W)
     if "W" in folded.attrs:
@@ -390,7 +390,7 @@ def mean_velocity_eq32(scales: VelocityScales, W: float, profile: pd.DataFrame |
     measured = float("nan")
     if profile is not None:
         u, _ = downward_speed(profile)
-        measured = _width_weighted_mean(u, _bin_width(profile))
+        measured = width_weighted_mean(u, bin_widths(profile))
     return {"u_mean_eq32": float(eq32), "u_mean_measured": measured}
 
 
@@ -461,9 +461,9 @@ def stress_checks(profile: pd.DataFrame, gravity_y: float = -1.0, rho_p: float =
     W = float(profile["x_hi"].iloc[-1] + profile["x_lo"].iloc[0])
     interior = np.zeros(len(x), dtype=bool)
     interior[1:-1] = True
-    sxx, _ = _field(profile, "sigma_xx")
-    sxy, _ = _field(profile, "sigma_xy")
-    phi, _ = _field(profile, "phi")
+    sxx, _ = field_and_error(profile, "sigma_xx")
+    sxy, _ = field_and_error(profile, "sigma_xy")
+    phi, _ = field_and_error(profile, "phi")
 
     sxx_mean = sxx_rel = nan
     if "sigma_xx" not in profile:
@@ -486,7 +486,7 @@ def stress_checks(profile: pd.DataFrame, gravity_y: float = -1.0, rho_p: float =
             slope_se = float(np.sqrt(np.sum(resid**2) / (len(y) - 1) / np.sum(xi**2)))
             r2 = _r_squared(y, slope * xi)
 
-    rho_bulk = rho_p * _width_weighted_mean(phi, _bin_width(profile)) if "phi" in profile else nan
+    rho_bulk = rho_p * width_weighted_mean(phi, bin_widths(profile)) if "phi" in profile else nan
     if "phi" not in profile:
         reasons.append("no phi column for the bulk density")
     ratio = slope / (rho_bulk * gravity_y) if np.isfinite(rho_bulk) and rho_bulk > 0 else nan

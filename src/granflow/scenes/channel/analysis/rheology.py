@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .profile import JOP2015, PHI_AD, PHI_PLUG, WALL_LAYER, MuIParameters, _field, _width, downward_speed
+from .profile import JOP2015, PHI_AD, PHI_PLUG, WALL_LAYER, MuIParameters, channel_width, downward_speed, field_and_error
 
 
 # --------------------------------------------------------------------------- rheology
@@ -71,7 +71,7 @@ def rheology(folded: pd.DataFrame, W: float | None = None, rho_p: float = 1.0,
         Omega_z_over_omega_z Omega_z_over_omega_z_se shear_production
         shear_production_se``; ``attrs["unavailable"]`` maps NaN columns to the reason.
     """
-    W = _width(folded, W)
+    W = channel_width(folded, W)
     x = folded["x"].to_numpy(dtype=float)
     u, u_se = downward_speed(folded)
     d = _mirror_extended_gradient_operator(x, W)
@@ -81,9 +81,9 @@ def rheology(folded: pd.DataFrame, W: float | None = None, rho_p: float = 1.0,
     gd_se = np.sqrt((d**2) @ np.nan_to_num(u_se, nan=0.0) ** 2)
     gd_se[touches @ ~np.isfinite(u_se)] = np.nan
 
-    sxx, sxx_se = _field(folded, "sigma_xx")
-    sxy, sxy_se = _field(folded, "sigma_xy")
-    omz, omz_se = _field(folded, "Omega_z")
+    sxx, sxx_se = field_and_error(folded, "sigma_xx")
+    sxy, sxy_se = field_and_error(folded, "sigma_xy")
+    omz, omz_se = field_and_error(folded, "Omega_z")
     unavailable = {}
     with np.errstate(divide="ignore", invalid="ignore"):
         pos = sxx > 0
@@ -177,7 +177,7 @@ def flow_zones(folded: pd.DataFrame, rheo: pd.DataFrame, phi_ad: float = PHI_AD,
     """
     x = folded["x"].to_numpy(dtype=float)
     x_lo = folded["x_lo"].to_numpy(dtype=float)
-    phi, _ = _field(folded, "phi")
+    phi, _ = field_and_error(folded, "phi")
     gd = rheo["gamma_dot"].to_numpy(dtype=float)
     gd_se = rheo["gamma_dot_se"].to_numpy(dtype=float)
     reasons = []

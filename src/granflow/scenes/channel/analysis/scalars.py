@@ -10,14 +10,14 @@ from .profile import (
     StressChecks,
     UniversalFit,
     VelocityScales,
-    _bin_width,
-    _field,
-    _width_weighted_mean,
+    bin_widths,
+    field_and_error,
     fit_universal_profile,
     fold_profile,
     mean_velocity_eq32,
     stress_checks,
     velocity_scales,
+    width_weighted_mean,
 )
 from .rheology import FlowZones, flow_zones, rheology
 
@@ -78,13 +78,13 @@ def plug_phi(a: ChannelAnalysis) -> tuple[float, float]:
 def scalars_from_analysis(a: ChannelAnalysis, phi_mean: float) -> dict:
     """Flatten a :class:`ChannelAnalysis` into the per-case CSV row (:data:`SCALAR_KEYS`)."""
     folded, zones = a.folded, a.zones
-    phi, _ = _field(folded, "phi")
+    phi, _ = field_and_error(folded, "phi")
     notes = [f"{k}: {v}" for k, v in (("velocity", a.scales.reason), ("fit", a.fit.reason),
                                       ("stress", a.stress.reason), ("zones", zones.reason)) if v]
     notes += [f"{k}: {v}" for k, v in a.rheo.attrs.get("unavailable", {}).items()]
     row = {
         "W": a.W, "phi_mean": float(phi_mean),
-        "phi_mean_measured": _width_weighted_mean(phi, _bin_width(folded)),
+        "phi_mean_measured": width_weighted_mean(phi, bin_widths(folded)),
         "u_slip": a.scales.u_slip, "u_slip_se": a.scales.u_slip_se,
         "u_max": a.scales.u_max, "u_max_se": a.scales.u_max_se,
         "ratio": a.scales.ratio, "ratio_se": a.scales.ratio_se,

@@ -53,7 +53,7 @@ PHI_MIN_PARTIAL = 1e-3
 
 
 # --------------------------------------------------------------------------- helpers
-def _column(df: pd.DataFrame, name: str, default: float = np.nan) -> np.ndarray:
+def numeric_column(df: pd.DataFrame, name: str, default: float = np.nan) -> np.ndarray:
     """Column as floats; ``default`` everywhere when absent."""
     if name in df:
         return pd.to_numeric(df[name], errors="coerce").to_numpy(dtype=float)
@@ -78,12 +78,12 @@ def field_map(fields: pd.DataFrame, column: str) -> tuple[np.ndarray, np.ndarray
     values : ndarray, shape (n_r, n_z)
         ``values[i, j]`` at ``(r[i], z[j])``; NaN where a node or the column is missing.
     """
-    r = np.unique(_column(fields, "r"))
-    z = np.unique(_column(fields, "z"))
+    r = np.unique(numeric_column(fields, "r"))
+    z = np.unique(numeric_column(fields, "z"))
     r, z = r[np.isfinite(r)], z[np.isfinite(z)]
     values = np.full((len(r), len(z)), np.nan)
     if column in fields and len(r) and len(z):
-        rr, zz, v = _column(fields, "r"), _column(fields, "z"), _column(fields, column)
+        rr, zz, v = numeric_column(fields, "r"), numeric_column(fields, "z"), numeric_column(fields, column)
         ok = np.isfinite(rr) & np.isfinite(zz)
         values[np.searchsorted(r, rr[ok]), np.searchsorted(z, zz[ok])] = v[ok]
     return r, z, values
@@ -153,12 +153,12 @@ def flow_rates(thermo: pd.DataFrame, rho_p: float, phi_b: float, R_c: float, win
     if not window > 0:
         raise ValueError(f"window must be positive, got {window}")
     columns = ["t", "t_lo", "t_hi", "n", "W_f", "W_f_se", "W_r", "W_r_se", "W_ins", "z_s"]
-    t = _column(thermo, "Time")
+    t = numeric_column(thermo, "Time")
     order = np.argsort(t, kind="stable")
     t = t[order]
-    m_del = _column(thermo, "v_mdel")[order]
-    m_ins = _column(thermo, "v_mins", 0.0)[order]
-    z_s = _column(thermo, "v_zs")[order]
+    m_del = numeric_column(thermo, "v_mdel")[order]
+    m_ins = numeric_column(thermo, "v_mins", 0.0)[order]
+    z_s = numeric_column(thermo, "v_zs")[order]
     if np.isfinite(t).sum() < 3:
         return pd.DataFrame(columns=columns)
     area_mass = rho_p * phi_b * np.pi * R_c ** 2
@@ -303,7 +303,8 @@ def steady_flow_rate(thermo: pd.DataFrame, t_start: float, t_end: float, n_block
         Without a steady window ("no steady window") or with fewer than 3
         thermo samples in it.
     """
-    return steady_rate(_column(thermo, "Time"), _column(thermo, "v_mdel"), t_start, t_end, n_blocks=n_blocks)
+    return steady_rate(numeric_column(thermo, "Time"), numeric_column(thermo, "v_mdel"), t_start, t_end,
+                       n_blocks=n_blocks)
 
 
 def surface_rate_ratio(flow: pd.DataFrame, W_f: float, W_f_se: float, t_start: float, t_end: float,
@@ -330,9 +331,9 @@ def surface_rate_ratio(flow: pd.DataFrame, W_f: float, W_f_se: float, t_start: f
     """
     from postproc.autocorr import combined_error, mean_error
 
-    t = _column(flow, "t")
+    t = numeric_column(flow, "t")
     sel = np.isfinite(t) & (t >= t_start - 1e-12) & (t <= t_end + 1e-12)
-    w_r = _column(flow, "W_r")[sel]
+    w_r = numeric_column(flow, "W_r")[sel]
     w_r = w_r[np.isfinite(w_r)]
     m = mean_error(w_r)
     blocks = [b.mean() for b in np.array_split(w_r, n_blocks) if len(b)] if len(w_r) >= n_blocks else []

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .discharge import PHI_MIN_PARTIAL, SQRT_PROFILE_RANGE, _column, field_map, species_ids
+from .discharge import PHI_MIN_PARTIAL, SQRT_PROFILE_RANGE, field_map, numeric_column, species_ids
 
 
 # --------------------------------------------------------------------------- profiles
@@ -55,16 +55,16 @@ def orifice_profiles(fields: pd.DataFrame, R: float, z_orifice: float = 0.0,
     """
     if not R > 0:
         raise ValueError(f"orifice radius must be positive, got {R}")
-    z = _column(fields, "z")
+    z = numeric_column(fields, "z")
     if not np.isfinite(z).any():
         raise ValueError("field table has no z nodes")
     z_row = _nearest(z, z_orifice)
     row = fields[z == z_row]
-    r = _column(row, "r")
+    r = numeric_column(row, "r")
     order = np.argsort(r, kind="stable")
     r = r[order]
-    phi, phi_se = _column(row, "phi")[order], _column(row, "phi_se")[order]
-    uz, uz_se = _column(row, "u_z")[order], _column(row, "u_z_se")[order]
+    phi, phi_se = numeric_column(row, "phi")[order], numeric_column(row, "phi_se")[order]
+    uz, uz_se = numeric_column(row, "u_z")[order], numeric_column(row, "u_z_se")[order]
     i0 = int(np.nanargmin(np.abs(r)))
     phi_c, uz_c = phi[i0], uz[i0]
     phi_norm = phi / phi_c if np.isfinite(phi_c) and phi_c != 0 else np.full_like(phi, np.nan)
@@ -232,12 +232,12 @@ def cumulative_kinetic_pressure(fields: pd.DataFrame) -> pd.DataFrame:
         with a ``pk_s<s>`` column.
     """
     ids = species_ids(fields, "pk")
-    out = {key: _column(fields, key) for key in ("r", "z")}
+    out = {key: numeric_column(fields, key) for key in ("r", "z")}
     total = np.zeros(len(fields))
     var = np.zeros(len(fields))
     for s in reversed(ids):
-        total = total + _column(fields, f"pk_s{s}")
-        var = var + _column(fields, f"pk_s{s}_se") ** 2
+        total = total + numeric_column(fields, f"pk_s{s}")
+        var = var + numeric_column(fields, f"pk_s{s}_se") ** 2
         out[f"pk_cum_s{s}"] = total.copy()
         out[f"pk_cum_s{s}_se"] = np.sqrt(var)
     cols = ["r", "z"] + [f"pk_cum_s{s}{e}" for s in ids for e in ("", "_se")]
@@ -259,10 +259,10 @@ def partial_over_fraction(fields: pd.DataFrame, phi_min: float = PHI_MIN_PARTIAL
         species with both ``pk_s<s>`` and ``phi_s<s>``.
     """
     ids = [s for s in species_ids(fields, "pk") if f"phi_s{s}" in fields]
-    out = {key: _column(fields, key) for key in ("r", "z")}
+    out = {key: numeric_column(fields, key) for key in ("r", "z")}
     for s in ids:
-        pk, phi = _column(fields, f"pk_s{s}"), _column(fields, f"phi_s{s}")
-        pk_se, phi_se = _column(fields, f"pk_s{s}_se"), _column(fields, f"phi_s{s}_se")
+        pk, phi = numeric_column(fields, f"pk_s{s}"), numeric_column(fields, f"phi_s{s}")
+        pk_se, phi_se = numeric_column(fields, f"pk_s{s}_se"), numeric_column(fields, f"phi_s{s}_se")
         phi = np.where(phi >= phi_min, phi, np.nan)
         out[f"pk_over_phi_s{s}"] = pk / phi
         out[f"pk_over_phi_s{s}_se"] = np.sqrt((pk_se / phi) ** 2 + (pk * phi_se / phi ** 2) ** 2)
@@ -462,8 +462,8 @@ def bulk_volume_fraction(fields: pd.DataFrame, fill_height: float, R_c: float, r
     phi_bulk, phi_bulk_se : float
         NaN when no node lies in the slab.
     """
-    r, z, phi = _column(fields, "r"), _column(fields, "z"), _column(fields, "phi")
-    se = _column(fields, "phi_se")
+    r, z, phi = numeric_column(fields, "r"), numeric_column(fields, "z"), numeric_column(fields, "phi")
+    se = numeric_column(fields, "phi_se")
     sel = (z > 0.5 * fill_height - 4 * r_b) & (z < 0.5 * fill_height + 4 * r_b) & (r < R_c - 3 * r_b)
     if not sel.any():
         return float("nan"), float("nan")

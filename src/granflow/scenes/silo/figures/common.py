@@ -31,7 +31,7 @@ def _rung(case: dict) -> str:
     return str(rung)
 
 
-def _finish(fig: Figure, cases: list[dict], path, right_in: float = 0.25) -> Figure:
+def finish_with_rung(fig: Figure, cases: list[dict], path, right_in: float = 0.25) -> Figure:
     """Rung badge at the top right, then the heap figures' provenance footer and save."""
     rungs = list(dict.fromkeys(_rung(c) for c in cases))
     if rungs:
@@ -44,36 +44,36 @@ def _finish(fig: Figure, cases: list[dict], path, right_in: float = 0.25) -> Fig
     return _finish_with_footer(fig, cases, path, right_in=right_in)
 
 
-def _no_case(axes):
+def no_case(axes):
     for ax in np.ravel(axes):
         _say(ax, NO_CASE, fontsize=11)
 
 
-def _has(df: pd.DataFrame, *cols: str) -> bool:
+def has_values(df: pd.DataFrame, *cols: str) -> bool:
     return len(df) > 0 and all(c in df and pd.to_numeric(df[c], errors="coerce").notna().any() for c in cols)
 
 
-def _R_over_rb(case: dict) -> float:
+def R_over_rb(case: dict) -> float:
     return _scalar(case, "R") / _scalar(case, "r_b")
 
 
-def _case_name(case: dict) -> str:
+def case_name(case: dict) -> str:
     """The case's label, with R/r_b appended unless the label already names R."""
-    x, label = _R_over_rb(case), _label(case)
+    x, label = R_over_rb(case), _label(case)
     if not np.isfinite(x) or re.search(r"\bR\s*=", label):
         return label
     return f"{label} (R = {x:.3g} $r_b$)"
 
 
-def _reference(cases: list[dict], key: str, *cols: str):
+def reference_case(cases: list[dict], key: str, *cols: str):
     """(index, case) of the case with R closest to 12 r_b among those whose table ``key`` has ``cols``."""
-    have = [(i, c) for i, c in enumerate(cases) if _has(_frame(c, key), *cols)]
+    have = [(i, c) for i, c in enumerate(cases) if has_values(_frame(c, key), *cols)]
     if not have:
         return None
-    return min(have, key=lambda ic: abs(np.nan_to_num(_R_over_rb(ic[1]), nan=np.inf) - R_REFERENCE))
+    return min(have, key=lambda ic: abs(np.nan_to_num(R_over_rb(ic[1]), nan=np.inf) - R_REFERENCE))
 
 
-def _length_unit(case: dict, kind: str) -> tuple[float, str]:
+def length_unit(case: dict, kind: str) -> tuple[float, str]:
     """Scale and label of a height axis: ``kind`` "R" (z/R) or "2rb" (z/2r_b); metres if unknown."""
     scale = _scalar(case, "R") if kind == "R" else 2 * _scalar(case, "r_b")
     if np.isfinite(scale) and scale > 0:
@@ -81,14 +81,14 @@ def _length_unit(case: dict, kind: str) -> tuple[float, str]:
     return 1.0, r"$z$ [m]"
 
 
-def _inset(ax, bounds=(0.58, 0.55, 0.38, 0.38)):
+def log_inset(ax, bounds=(0.58, 0.55, 0.38, 0.38)):
     inset = ax.inset_axes(list(bounds))
     inset.set_yscale("log")
     inset.tick_params(labelsize=6)
     return inset
 
 
-def _plot_positive(ax, x, y, **kw) -> bool:
+def plot_positive(ax, x, y, **kw) -> bool:
     x, y = _finite(x, y)
     ok = y > 0
     if not ok.any():
@@ -97,7 +97,7 @@ def _plot_positive(ax, x, y, **kw) -> bool:
     return True
 
 
-def _errorbar(ax, x, y, yerr=None, **kw) -> bool:
+def finite_errorbar(ax, x, y, yerr=None, **kw) -> bool:
     """Errorbar of the finite (x, y) pairs sorted by x (NaN errors drawn as 0); whether drawn."""
     yerr = np.zeros(len(np.atleast_1d(x))) if yerr is None else np.nan_to_num(np.asarray(yerr, dtype=float))
     x, y, e = _finite(x, y, yerr)
@@ -107,8 +107,8 @@ def _errorbar(ax, x, y, yerr=None, **kw) -> bool:
     return True
 
 
-def _map(fig: Figure, ax, table: pd.DataFrame, column: str, label: str, case: dict, norm=None, cmap="viridis",
-         colourbar: bool = True):
+def draw_map(fig: Figure, ax, table: pd.DataFrame, column: str, label: str, case: dict, norm=None, cmap="viridis",
+             colourbar: bool = True):
     """Colour map of a field on the (r, z) grid with the silo bottom drawn; the mappable or None."""
     r, z, values = silo.field_map(table, column)
     if not np.isfinite(values).any():
@@ -127,7 +127,7 @@ def _map(fig: Figure, ax, table: pd.DataFrame, column: str, label: str, case: di
     return mesh
 
 
-def _species_label(case: dict, s: int, prefix: str = "") -> str:
+def species_label(case: dict, s: int, prefix: str = "") -> str:
     scalars = case.get("scalars") or {}
     radii = scalars.get("radii") if hasattr(scalars, "get") else None
     r_b = _scalar(case, "r_b")

@@ -8,7 +8,7 @@ from matplotlib.lines import Line2D
 import granflow.scenes.silo.analysis as silo
 from granflow.plotting import MARKERS, _col, _colour, _frame, _new_figure, _pm, _say, _scalar, _unavailable
 
-from .common import _case_name, _errorbar, _finish, _has, _map, _no_case, _reference
+from .common import case_name, draw_map, finish_with_rung, finite_errorbar, has_values, no_case, reference_case
 
 
 # --------------------------------------------------------------------------- figures
@@ -29,8 +29,8 @@ def fig02_flow_rate(cases: list[dict], path) -> Figure:
     ax_a.set(xlabel=xlabel, ylabel=r"$W$ [kg/s]", title="(a) discharge rate")
     ax_b.set(xlabel=xlabel, ylabel=r"$W/(\rho_p\phi_c v_c \pi R^2)$", title="(b) rescaled by the orifice flux")
     if not cases:
-        _no_case(axes)
-        return _finish(fig, cases, path)
+        no_case(axes)
+        return finish_with_rung(fig, cases, path)
     drawn_a = drawn_b = False
     for i, case in enumerate(cases):
         flow = _frame(case, "flow")
@@ -40,9 +40,9 @@ def fig02_flow_rate(cases: list[dict], path) -> Figure:
         x = _col(flow, "t") / t_d
         colour, marker = _colour(i), MARKERS[i % len(MARKERS)]
         w_f, w_r = _col(flow, "W_f"), _col(flow, "W_r")
-        drawn = _errorbar(ax_a, x, w_f, _col(flow, "W_f_se"), color=colour, marker=marker, ms=4,
-                          ls="none", mfc="none", capsize=1.5, label=_case_name(case))
-        drawn |= _errorbar(ax_a, x, w_r, None, color=colour, lw=1)
+        drawn = finite_errorbar(ax_a, x, w_f, _col(flow, "W_f_se"), color=colour, marker=marker, ms=4,
+                                ls="none", mfc="none", capsize=1.5, label=case_name(case))
+        drawn |= finite_errorbar(ax_a, x, w_r, None, color=colour, lw=1)
         drawn_a |= drawn
         t0, t1, W = _scalar(case, "t_start"), _scalar(case, "t_end"), _scalar(case, "W_f")
         if np.isfinite(t0) and np.isfinite(t1):
@@ -52,9 +52,9 @@ def fig02_flow_rate(cases: list[dict], path) -> Figure:
         scale = silo.scaled_flow_rate(1.0, _scalar(case, "density"), _scalar(case, "phi_c"),
                                       _scalar(case, "v_c"), _scalar(case, "R"))
         if np.isfinite(scale) and scale > 0:
-            b = _errorbar(ax_b, x, w_f * scale, _col(flow, "W_f_se") * scale, color=colour, marker=marker,
-                          ms=4, ls="none", mfc="none", capsize=1.5, label=_case_name(case))
-            b |= _errorbar(ax_b, x, w_r * scale, None, color=colour, lw=1)
+            b = finite_errorbar(ax_b, x, w_f * scale, _col(flow, "W_f_se") * scale, color=colour, marker=marker,
+                                ms=4, ls="none", mfc="none", capsize=1.5, label=case_name(case))
+            b |= finite_errorbar(ax_b, x, w_r * scale, None, color=colour, lw=1)
             drawn_b |= b
     if drawn_a:
         style = [Line2D([], [], color="0.3", marker="o", mfc="none", ls="none", label=r"$W_f$: deleted mass"),
@@ -67,7 +67,7 @@ def fig02_flow_rate(cases: list[dict], path) -> Figure:
         ax_b.legend(fontsize=7)
     else:
         _say(ax_b, "rescaled rate not available\n(needs the flow series, φ_c and v_c)")
-    return _finish(fig, cases, path)
+    return finish_with_rung(fig, cases, path)
 
 
 def fig03_fields(cases: list[dict], path) -> Figure:
@@ -80,27 +80,27 @@ def fig03_fields(cases: list[dict], path) -> Figure:
     fig, axes = _new_figure(1, 2, (11, 5.2))
     ax_phi, ax_v = axes[0]
     if not cases:
-        _no_case(axes)
-        return _finish(fig, cases, path, right_in=0.9)
-    ref = _reference(cases, "fields", "phi") or _reference(cases, "fields", "u_z")
+        no_case(axes)
+        return finish_with_rung(fig, cases, path, right_in=0.9)
+    ref = reference_case(cases, "fields", "phi") or reference_case(cases, "fields", "u_z")
     if ref is None:
         _unavailable(ax_phi, "φ field")
         _unavailable(ax_v, "v_z field")
-        return _finish(fig, cases, path, right_in=0.9)
+        return finish_with_rung(fig, cases, path, right_in=0.9)
     _, case = ref
     table = _frame(case, "fields")
-    _map(fig, ax_phi, table, "phi", r"$\phi$", case, cmap="viridis")
-    _map(fig, ax_v, table, "u_z", r"$v_z$ [m/s]", case, cmap="magma")
-    ax_phi.set_title(f"(a) volume fraction, {_case_name(case)}", fontsize=9)
-    ax_v.set_title(f"(b) vertical velocity, {_case_name(case)}", fontsize=9)
-    return _finish(fig, cases, path, right_in=0.9)
+    draw_map(fig, ax_phi, table, "phi", r"$\phi$", case, cmap="viridis")
+    draw_map(fig, ax_v, table, "u_z", r"$v_z$ [m/s]", case, cmap="magma")
+    ax_phi.set_title(f"(a) volume fraction, {case_name(case)}", fontsize=9)
+    ax_v.set_title(f"(b) vertical velocity, {case_name(case)}", fontsize=9)
+    return finish_with_rung(fig, cases, path, right_in=0.9)
 
 
 def _orifice(case: dict):
     """:func:`granflow.scenes.silo.analysis.orifice_profiles` of a case, or None when it cannot be formed."""
     table = _frame(case, "fields")
     R = _scalar(case, "R")
-    if not _has(table, "r", "z") or not (np.isfinite(R) and R > 0):
+    if not has_values(table, "r", "z") or not (np.isfinite(R) and R > 0):
         return None
     try:
         return silo.orifice_profiles(table, R)
@@ -119,8 +119,8 @@ def fig04_phi_orifice(cases: list[dict], path) -> Figure:
     ax_a.set(xlabel=r"$r$ [m]", ylabel=r"$\phi(r)$", title="(a) volume fraction at the orifice")
     ax_b.set(xlabel=r"$r/R$", ylabel=r"$\phi(r)/\phi(0)$", title="(b) scaled by the orifice radius")
     if not cases:
-        _no_case(axes)
-        return _finish(fig, cases, path)
+        no_case(axes)
+        return finish_with_rung(fig, cases, path)
     drawn_a = drawn_b = False
     for i, case in enumerate(cases):
         o = _orifice(case)
@@ -128,15 +128,15 @@ def fig04_phi_orifice(cases: list[dict], path) -> Figure:
             continue
         p = o["profile"]
         kw = dict(color=_colour(i), marker=MARKERS[i % len(MARKERS)], ms=3.5, lw=0.8, capsize=1.5,
-                  label=f"{_case_name(case)}, z = {o['z_row']:.3g} m")
-        drawn_a |= _errorbar(ax_a, p["r"], p["phi"], p["phi_se"], **kw)
-        drawn_b |= _errorbar(ax_b, p["r_over_R"], p["phi_norm"], p["phi_se"] / o["phi_c"], **kw)
+                  label=f"{case_name(case)}, z = {o['z_row']:.3g} m")
+        drawn_a |= finite_errorbar(ax_a, p["r"], p["phi"], p["phi_se"], **kw)
+        drawn_b |= finite_errorbar(ax_b, p["r_over_R"], p["phi_norm"], p["phi_se"] / o["phi_c"], **kw)
     for ax, drawn, what in ((ax_a, drawn_a, "φ(r) at the orifice"), (ax_b, drawn_b, "φ(r)/φ(0)")):
         if drawn:
             ax.legend(fontsize=7)
         else:
             _unavailable(ax, what)
-    return _finish(fig, cases, path)
+    return finish_with_rung(fig, cases, path)
 
 
 def fig05_vz_orifice(cases: list[dict], path) -> Figure:
@@ -155,8 +155,8 @@ def fig05_vz_orifice(cases: list[dict], path) -> Figure:
     ax_b.set(xlabel=r"$r/R$", ylabel=r"$v_z(r)/v_z(0)$", title="(b) scaled by the orifice radius")
     ax_c.set(xlabel=r"$\sqrt{R}$ [m$^{1/2}$]", ylabel=r"$v_c = |v_z(0)|$ [m/s]", title=r"(c) $v_c$ against $\sqrt{R}$")
     if not cases:
-        _no_case(axes)
-        return _finish(fig, cases, path)
+        no_case(axes)
+        return finish_with_rung(fig, cases, path)
     drawn_a = drawn_b = False
     Rs, vcs, vc_ses = [], [], []
     for i, case in enumerate(cases):
@@ -165,11 +165,11 @@ def fig05_vz_orifice(cases: list[dict], path) -> Figure:
         if o is not None:
             p = o["profile"]
             kw = dict(lw=0.8, capsize=1.5, **style)
-            drawn_a |= _errorbar(ax_a, p["r"], -p["u_z"], p["u_z_se"], label=_case_name(case), **kw)
+            drawn_a |= finite_errorbar(ax_a, p["r"], -p["u_z"], p["u_z_se"], label=case_name(case), **kw)
             dev = _scalar(case, "sqrt_profile_deviation")
             dev = dev if np.isfinite(dev) else o["sqrt_profile_deviation"]
-            drawn_b |= _errorbar(ax_b, p["r_over_R"], p["vz_norm"], p["u_z_se"] / o["v_c"],
-                                 label=f"{_case_name(case)}: rms dev. {dev:.3f}", **kw)
+            drawn_b |= finite_errorbar(ax_b, p["r_over_R"], p["vz_norm"], p["u_z_se"] / o["v_c"],
+                                       label=f"{case_name(case)}: rms dev. {dev:.3f}", **kw)
         v_c = _scalar(case, "v_c")
         v_c_se = _scalar(case, "v_c_se")
         if not np.isfinite(v_c) and o is not None:
@@ -177,7 +177,7 @@ def fig05_vz_orifice(cases: list[dict], path) -> Figure:
         R = _scalar(case, "R")
         if np.isfinite(v_c) and np.isfinite(R) and R > 0:
             ax_c.errorbar([np.sqrt(R)], [v_c], yerr=[np.nan_to_num(v_c_se)], ls="none", capsize=2,
-                          label=_case_name(case), **style)
+                          label=case_name(case), **style)
             Rs.append(R), vcs.append(v_c), vc_ses.append(v_c_se)
     x = np.linspace(0, 1, 200)
     ax_b.plot(x, np.sqrt(1 - x ** 2), "k-", lw=1.5, label=r"reference $\sqrt{1-(r/R)^2}$ (Janda et al. 2012)")
@@ -200,7 +200,7 @@ def fig05_vz_orifice(cases: list[dict], path) -> Figure:
         ax_c.legend(fontsize=7)
     else:
         _unavailable(ax_c, "v_c")
-    return _finish(fig, cases, path)
+    return finish_with_rung(fig, cases, path)
 
 
 def fig05d_orifice_plane(cases: list[dict], path) -> Figure:
@@ -219,23 +219,24 @@ def fig05d_orifice_plane(cases: list[dict], path) -> Figure:
     ax_b.set(xlabel=r"$r/R$", ylabel=r"$\phi(r)$", title=r"(b) $\phi$ in the orifice plane (no kernel)")
     ax_c.set(xlabel=r"$R/r_b$", ylabel=r"$v_c$ [m/s]", title=r"(c) $v_c$: plane and kernel", xscale="log", yscale="log")
     if not cases:
-        _no_case(axes)
-        return _finish(fig, cases, path)
+        no_case(axes)
+        return finish_with_rung(fig, cases, path)
     Rs, vp, vp_se, vk, r_b, g = [], [], [], [], np.nan, np.nan
     for i, case in enumerate(cases):
         pl = case.get("orifice_plane")
         style = dict(color=_colour(i), marker=MARKERS[i % len(MARKERS)], ms=3.5)
         v_c = abs(_scalar(case, "v_c_plane"))
-        if pl is not None and _has(pl, "vz") and np.isfinite(v_c):
+        if pl is not None and has_values(pl, "vz") and np.isfinite(v_c):
             p = pl[(pl["slab_half"] == _scalar(case, "plane_slab_half")) & (pl["r_over_R"] <= 1.3)]
-            _errorbar(ax_a, p["r_over_R"], -p["vz"] / v_c, p["vz_se"] / v_c, label=_case_name(case), lw=0.8,
-                      capsize=1.5, **style)
-            _errorbar(ax_b, p["r_over_R"], p["phi"], p["phi_se"], label=_case_name(case), lw=0.8, capsize=1.5, **style)
+            finite_errorbar(ax_a, p["r_over_R"], -p["vz"] / v_c, p["vz_se"] / v_c, label=case_name(case), lw=0.8,
+                            capsize=1.5, **style)
+            finite_errorbar(ax_b, p["r_over_R"], p["phi"], p["phi_se"], label=case_name(case), lw=0.8, capsize=1.5,
+                            **style)
         R_rb = _scalar(case, "R") / _scalar(case, "r_b")
         r_b, g = _scalar(case, "r_b"), _scalar(case, "gravity")
         if np.isfinite(v_c) and np.isfinite(R_rb):
             ax_c.errorbar([R_rb], [v_c], yerr=[np.nan_to_num(_scalar(case, "v_c_plane_se"))], ls="none", capsize=2,
-                          label=_case_name(case), **style)
+                          label=case_name(case), **style)
             Rs.append(R_rb), vp.append(v_c), vp_se.append(_scalar(case, "v_c_plane_se"))
             vk.append(_scalar(case, "v_c"))
             ax_c.plot([R_rb], [_scalar(case, "v_c")], ls="none", marker=style["marker"], mfc="none",
@@ -270,7 +271,7 @@ def fig05d_orifice_plane(cases: list[dict], path) -> Figure:
         ax_c.set_xticks(sorted(set(round(r, 2) for r in Rs)))
     elif not Rs:
         _unavailable(ax_c, "v_c")
-    return _finish(fig, cases, path)
+    return finish_with_rung(fig, cases, path)
 
 
 def fig06_contact_pressure(cases: list[dict], path) -> Figure:
@@ -283,22 +284,22 @@ def fig06_contact_pressure(cases: list[dict], path) -> Figure:
     ax_m, ax_z = axes[0]
     ax_z.set(xlabel=r"$z$ [m]", ylabel=r"$p^c(r=0)$ [Pa]", title="(b) contact pressure on the axis")
     if not cases:
-        _no_case(axes)
-        return _finish(fig, cases, path, right_in=0.9)
-    ref = _reference(cases, "contact", "pc")
+        no_case(axes)
+        return finish_with_rung(fig, cases, path, right_in=0.9)
+    ref = reference_case(cases, "contact", "pc")
     if ref is None:
         _unavailable(ax_m, "contact pressure")
     else:
-        _map(fig, ax_m, _frame(ref[1], "contact"), "pc", r"$p^c$ [Pa]", ref[1], cmap="cividis")
-        ax_m.set_title(f"(a) contact pressure, {_case_name(ref[1])}", fontsize=9)
+        draw_map(fig, ax_m, _frame(ref[1], "contact"), "pc", r"$p^c$ [Pa]", ref[1], cmap="cividis")
+        ax_m.set_title(f"(a) contact pressure, {case_name(ref[1])}", fontsize=9)
     drawn = False
     for i, case in enumerate(cases):
         prof = silo.axis_profile(_frame(case, "contact"), "pc")
-        drawn |= _errorbar(ax_z, prof["z"], prof["value"], prof["value_se"], color=_colour(i),
-                           marker=MARKERS[i % len(MARKERS)], ms=3, lw=0.8, capsize=1.5, label=_case_name(case))
+        drawn |= finite_errorbar(ax_z, prof["z"], prof["value"], prof["value_se"], color=_colour(i),
+                                 marker=MARKERS[i % len(MARKERS)], ms=3, lw=0.8, capsize=1.5, label=case_name(case))
     if drawn:
         ax_z.axvline(0.0, color="0.5", ls=":", lw=0.8)
         ax_z.legend(fontsize=7)
     else:
         _unavailable(ax_z, "contact pressure on the axis")
-    return _finish(fig, cases, path, right_in=0.9)
+    return finish_with_rung(fig, cases, path, right_in=0.9)

@@ -27,18 +27,18 @@ from .common import (
     LOG_RANGE,
     MAPS_PER_ROW,
     R_REFERENCE,
-    _case_name,
-    _errorbar,
-    _finish,
-    _has,
-    _inset,
-    _length_unit,
-    _map,
-    _no_case,
-    _plot_positive,
-    _R_over_rb,
-    _reference,
-    _species_label,
+    R_over_rb,
+    case_name,
+    draw_map,
+    finish_with_rung,
+    finite_errorbar,
+    has_values,
+    length_unit,
+    log_inset,
+    no_case,
+    plot_positive,
+    reference_case,
+    species_label,
 )
 from .discharge import fig02_flow_rate, fig03_fields, fig04_phi_orifice, fig05_vz_orifice, fig05d_orifice_plane, fig06_contact_pressure
 
@@ -59,25 +59,25 @@ def fig07_kinetic_pressure_maps(cases: list[dict], path) -> Figure:
         fig.delaxes(ax)
     axes = grid.ravel()[:n]
     if not cases:
-        _no_case(axes)
-        return _finish(fig, cases, path, right_in=0.9)
+        no_case(axes)
+        return finish_with_rung(fig, cases, path, right_in=0.9)
     pos = [_col(_frame(c, "fields"), "pk") for c in cases]
     pos = np.concatenate([p[_positive(p)] for p in pos]) if pos else np.array([])
     norm = LogNorm(vmin=max(pos.min(), pos.max() * LOG_RANGE), vmax=pos.max()) if len(pos) else None
     mappable = None
     for k, i in enumerate(order):
         ax, case = axes[k], cases[i]
-        ax.set_title(f"({chr(97 + k)}) {_case_name(case)}", fontsize=9)
+        ax.set_title(f"({chr(97 + k)}) {case_name(case)}", fontsize=9)
         if norm is None:
             _unavailable(ax, "kinetic pressure")
             continue
-        mappable = _map(fig, ax, _frame(case, "fields"), "pk", r"$p^k$ [Pa]", case, norm=norm, cmap="inferno",
-                        colourbar=False) or mappable
+        mappable = draw_map(fig, ax, _frame(case, "fields"), "pk", r"$p^k$ [Pa]", case, norm=norm, cmap="inferno",
+                            colourbar=False) or mappable
         if k % ncols:
             ax.set_ylabel("")
     if mappable is not None:
         _colourbar(fig, axes[-1], mappable, r"$p^k$ [Pa]")
-    return _finish(fig, cases, path, right_in=0.9)
+    return finish_with_rung(fig, cases, path, right_in=0.9)
 
 
 def _h_c(case: dict, prof: pd.DataFrame) -> tuple[float, float]:
@@ -97,24 +97,24 @@ def fig08_kinetic_axis(cases: list[dict], path) -> Figure:
     fig, axes = _new_figure(1, 1, (7.5, 5.2))
     ax = axes[0, 0]
     ax.set(ylabel=r"$p^k(r=0)$ [Pa]", title="kinetic pressure on the axis")
-    inset = _inset(ax)
+    inset = log_inset(ax)
     if not cases:
         ax.set_xlabel(r"$z/R$")
-        _no_case(axes)
-        return _finish(fig, cases, path)
+        no_case(axes)
+        return finish_with_rung(fig, cases, path)
     drawn = False
     xlabel = r"$z/R$"
     for i, case in enumerate(cases):
         prof = silo.axis_profile(_frame(case, "fields"), "pk")
-        scale, xlabel_i = _length_unit(case, "R")
+        scale, xlabel_i = length_unit(case, "R")
         colour = _colour(i)
         h, h_se = _h_c(case, prof)
-        label = f"{_case_name(case)}: $h_c/R$ = {_pm(h / scale, h_se / scale, '.2f')}"
-        d = _errorbar(ax, prof["z"] / scale, prof["value"], prof["value_se"], color=colour,
-                      marker=MARKERS[i % len(MARKERS)], ms=3, lw=0.8, capsize=1.5, label=label)
+        label = f"{case_name(case)}: $h_c/R$ = {_pm(h / scale, h_se / scale, '.2f')}"
+        d = finite_errorbar(ax, prof["z"] / scale, prof["value"], prof["value_se"], color=colour,
+                            marker=MARKERS[i % len(MARKERS)], ms=3, lw=0.8, capsize=1.5, label=label)
         if d:
             xlabel = xlabel if scale != 1.0 else xlabel_i
-            _plot_positive(inset, prof["z"] / scale, prof["value"], color=colour, lw=0.8)
+            plot_positive(inset, prof["z"] / scale, prof["value"], color=colour, lw=0.8)
             if np.isfinite(h):
                 ax.axvline(h / scale, color=colour, ls=":", lw=1)
         drawn |= d
@@ -123,7 +123,7 @@ def fig08_kinetic_axis(cases: list[dict], path) -> Figure:
         ax.legend(fontsize=7, loc="upper right", bbox_to_anchor=(1.0, 0.5))
     else:
         _unavailable(ax, "kinetic pressure on the axis")
-    return _finish(fig, cases, path)
+    return finish_with_rung(fig, cases, path)
 
 
 def fig09_kinetic_w(cases: list[dict], path) -> Figure:
@@ -135,23 +135,23 @@ def fig09_kinetic_w(cases: list[dict], path) -> Figure:
     fig, axes = _new_figure(1, 1, (7.5, 5.2))
     ax = axes[0, 0]
     ax.set(ylabel=r"$p^k(r=0)$ [Pa]")
-    inset = _inset(ax)
+    inset = log_inset(ax)
     if not cases:
         ax.set_xlabel(r"$z/2r_b$")
-        _no_case(axes)
-        return _finish(fig, cases, path)
+        no_case(axes)
+        return finish_with_rung(fig, cases, path)
     have = [(i, c) for i, c in enumerate(cases)
-            if isinstance(c.get("kinetic_scan"), dict) and any(_has(_frame(c["kinetic_scan"], w), "pk")
+            if isinstance(c.get("kinetic_scan"), dict) and any(has_values(_frame(c["kinetic_scan"], w), "pk")
                                                                for w in c["kinetic_scan"])]
     ax.set_xlabel(r"$z/2r_b$")
     if not have:
         ax.set_title("kinetic pressure on the axis for several w")
         _unavailable(ax, "kinetic scan over w")
-        return _finish(fig, cases, path)
-    _, case = min(have, key=lambda ic: abs(np.nan_to_num(_R_over_rb(ic[1]), nan=np.inf) - R_REFERENCE))
-    scale, xlabel = _length_unit(case, "2rb")
+        return finish_with_rung(fig, cases, path)
+    _, case = min(have, key=lambda ic: abs(np.nan_to_num(R_over_rb(ic[1]), nan=np.inf) - R_REFERENCE))
+    scale, xlabel = length_unit(case, "2rb")
     r_b = _scalar(case, "r_b")
-    ax.set(xlabel=xlabel, title=f"kinetic pressure on the axis for several w, {_case_name(case)}")
+    ax.set(xlabel=xlabel, title=f"kinetic pressure on the axis for several w, {case_name(case)}")
     scan = case["kinetic_scan"]
     for j, w in enumerate(sorted(scan, key=float)):
         prof = silo.axis_profile(_frame(scan, w), "pk")
@@ -159,13 +159,13 @@ def fig09_kinetic_w(cases: list[dict], path) -> Figure:
         w_text = f"w = {float(w) / r_b:.3g} $r_b$" if np.isfinite(r_b) else f"w = {float(w):.3g} m"
         h_text = f"$h_c/2r_b$ = {_pm(h / scale, h_se / scale, '.2f')}" if scale != 1.0 else \
             f"$h_c$ = {_pm(h, h_se, '.3g', 'm')}"
-        if _errorbar(ax, prof["z"] / scale, prof["value"], prof["value_se"], color=_colour(j),
-                     marker=MARKERS[j % len(MARKERS)], ms=3, lw=0.8, capsize=1.5, label=f"{w_text}: {h_text}"):
-            _plot_positive(inset, prof["z"] / scale, prof["value"], color=_colour(j), lw=0.8)
+        if finite_errorbar(ax, prof["z"] / scale, prof["value"], prof["value_se"], color=_colour(j),
+                           marker=MARKERS[j % len(MARKERS)], ms=3, lw=0.8, capsize=1.5, label=f"{w_text}: {h_text}"):
+            plot_positive(inset, prof["z"] / scale, prof["value"], color=_colour(j), lw=0.8)
             if np.isfinite(h):
                 ax.axvline(h / scale, color=_colour(j), ls=":", lw=1)
     ax.legend(fontsize=7, loc="upper right", bbox_to_anchor=(1.0, 0.5))
-    return _finish(fig, cases, path)
+    return finish_with_rung(fig, cases, path)
 
 
 def fig10_cumulative(cases: list[dict], path) -> Figure:
@@ -178,32 +178,32 @@ def fig10_cumulative(cases: list[dict], path) -> Figure:
     fig, axes = _new_figure(1, 1, (7.5, 5.2))
     ax = axes[0, 0]
     ax.set(xlabel=r"$z/2r_b$", ylabel=r"cumulative $p^k(r=0)$ [Pa]")
-    inset = _inset(ax)
+    inset = log_inset(ax)
     if not cases:
-        _no_case(axes)
-        return _finish(fig, cases, path)
-    ref = _reference(cases, "fields", "pk_s1")
+        no_case(axes)
+        return finish_with_rung(fig, cases, path)
+    ref = reference_case(cases, "fields", "pk_s1")
     if ref is None:
         ax.set_title("cumulative kinetic pressure on the axis")
         _unavailable(ax, "partial kinetic pressures")
-        return _finish(fig, cases, path)
+        return finish_with_rung(fig, cases, path)
     case = ref[1]
     table = _frame(case, "fields")
-    scale, xlabel = _length_unit(case, "2rb")
-    ax.set(xlabel=xlabel, title=f"cumulative kinetic pressure on the axis, {_case_name(case)}")
+    scale, xlabel = length_unit(case, "2rb")
+    ax.set(xlabel=xlabel, title=f"cumulative kinetic pressure on the axis, {case_name(case)}")
     cum = silo.cumulative_kinetic_pressure(table)
     ids = silo.species_ids(table, "pk")
     for j, s in enumerate(ids):
         prof = silo.axis_profile(cum, f"pk_cum_s{s}")
         kw = dict(color=_colour(j), lw=1)
-        _plot(ax, prof["z"] / scale, prof["value"], label=_species_label(case, s, "sizes ≥ "), **kw)
-        _plot_positive(inset, prof["z"] / scale, prof["value"], **kw)
+        _plot(ax, prof["z"] / scale, prof["value"], label=species_label(case, s, "sizes ≥ "), **kw)
+        plot_positive(inset, prof["z"] / scale, prof["value"], **kw)
     total = silo.axis_profile(table, "pk")
     if _plot(ax, total["z"] / scale, total["value"], color="black", ls="--", lw=1,
              label=r"total $p^k$ (column pk)"):
-        _plot_positive(inset, total["z"] / scale, total["value"], color="black", ls="--", lw=1)
+        plot_positive(inset, total["z"] / scale, total["value"], color="black", ls="--", lw=1)
     ax.legend(fontsize=7, loc="upper right", bbox_to_anchor=(1.0, 0.5))
-    return _finish(fig, cases, path)
+    return finish_with_rung(fig, cases, path)
 
 
 def fig11_partial(cases: list[dict], path) -> Figure:
@@ -219,27 +219,27 @@ def fig11_partial(cases: list[dict], path) -> Figure:
     ax_a.set_title("(a) partial kinetic pressure on the axis")
     ax_b.set_title("(b) semilog")
     if not cases:
-        _no_case(axes)
-        return _finish(fig, cases, path)
-    ref = _reference(cases, "fields", "pk_s1")
+        no_case(axes)
+        return finish_with_rung(fig, cases, path)
+    ref = reference_case(cases, "fields", "pk_s1")
     if ref is None:
         _unavailable(ax_a, "partial kinetic pressures")
         _unavailable(ax_b, "partial kinetic pressures")
-        return _finish(fig, cases, path)
+        return finish_with_rung(fig, cases, path)
     case = ref[1]
     table = _frame(case, "fields")
-    scale, xlabel = _length_unit(case, "2rb")
-    ax_a.set_title(f"(a) partial kinetic pressure on the axis, {_case_name(case)}", fontsize=9)
+    scale, xlabel = length_unit(case, "2rb")
+    ax_a.set_title(f"(a) partial kinetic pressure on the axis, {case_name(case)}", fontsize=9)
     for j, s in enumerate(silo.species_ids(table, "pk")):
         prof = silo.axis_profile(table, f"pk_s{s}")
         kw = dict(color=_colour(j), marker=MARKERS[j % len(MARKERS)], ms=2.5, lw=0.8,
-                  label=_species_label(case, s))
-        _errorbar(ax_a, prof["z"] / scale, prof["value"], prof["value_se"], capsize=1, **kw)
-        _plot_positive(ax_b, prof["z"] / scale, prof["value"], **kw)
+                  label=species_label(case, s))
+        finite_errorbar(ax_a, prof["z"] / scale, prof["value"], prof["value_se"], capsize=1, **kw)
+        plot_positive(ax_b, prof["z"] / scale, prof["value"], **kw)
     for ax in (ax_a, ax_b):
         ax.set_xlabel(xlabel)
     ax_a.legend(fontsize=7)
-    return _finish(fig, cases, path)
+    return finish_with_rung(fig, cases, path)
 
 
 def fig12_partial_over_phi(cases: list[dict], path) -> Figure:
@@ -253,27 +253,27 @@ def fig12_partial_over_phi(cases: list[dict], path) -> Figure:
     ax.set_yscale("log")
     ax.set(xlabel=r"$z/2r_b$", ylabel=r"$p^k_s/\phi_s\ (r=0)$ [Pa]")
     if not cases:
-        _no_case(axes)
-        return _finish(fig, cases, path)
-    ref = _reference(cases, "fields", "pk_s1", "phi_s1")
+        no_case(axes)
+        return finish_with_rung(fig, cases, path)
+    ref = reference_case(cases, "fields", "pk_s1", "phi_s1")
     if ref is None:
         ax.set_title("partial kinetic pressure per partial volume fraction")
         _unavailable(ax, "partial kinetic pressures and volume fractions")
-        return _finish(fig, cases, path)
+        return finish_with_rung(fig, cases, path)
     case = ref[1]
     table = silo.partial_over_fraction(_frame(case, "fields"))
-    scale, xlabel = _length_unit(case, "2rb")
-    ax.set(xlabel=xlabel, title=f"partial kinetic pressure per partial volume fraction, {_case_name(case)}")
+    scale, xlabel = length_unit(case, "2rb")
+    ax.set(xlabel=xlabel, title=f"partial kinetic pressure per partial volume fraction, {case_name(case)}")
     drawn = False
     for j, s in enumerate(silo.species_ids(table, "pk_over_phi")):
         prof = silo.axis_profile(table, f"pk_over_phi_s{s}")
-        drawn |= _plot_positive(ax, prof["z"] / scale, prof["value"], color=_colour(j),
-                                marker=MARKERS[j % len(MARKERS)], ms=2.5, lw=0.8, label=_species_label(case, s))
+        drawn |= plot_positive(ax, prof["z"] / scale, prof["value"], color=_colour(j),
+                               marker=MARKERS[j % len(MARKERS)], ms=2.5, lw=0.8, label=species_label(case, s))
     if drawn:
         ax.legend(fontsize=7)
     else:
         _unavailable(ax, "positive p_s/φ_s")
-    return _finish(fig, cases, path)
+    return finish_with_rung(fig, cases, path)
 
 
 def _beverloo_inputs(cases: list[dict]):
@@ -320,19 +320,19 @@ def fig13_beverloo(cases: list[dict], path) -> Figure:
     ax_a.set(xlabel=r"$D = 2R$ [m]", ylabel=r"$W$ [kg/s]", title="(a) steady discharge rate")
     ax_b.set(xlabel=r"$D = 2R$ [m]", ylabel=r"$W^{2/5}$ [(kg/s)$^{2/5}$]", title="(b) linearisation")
     if not cases:
-        _no_case(axes)
-        return _finish(fig, cases, path)
+        no_case(axes)
+        return finish_with_rung(fig, cases, path)
     rows, const = _beverloo_inputs(cases)
     if not rows:
         _unavailable(ax_a, "steady flow rate")
         _unavailable(ax_b, "steady flow rate")
-        return _finish(fig, cases, path)
+        return finish_with_rung(fig, cases, path)
     D = np.array([r[0] for r in rows])
     W = np.array([r[1] for r in rows])
     W_se = np.array([r[2] for r in rows])
     for D_i, W_i, se_i, i, c in rows:
         style = dict(color=_colour(i), marker=MARKERS[i % len(MARKERS)], ms=5, ls="none", capsize=2,
-                     label=_case_name(c))
+                     label=case_name(c))
         ax_a.errorbar([D_i], [W_i], yerr=[np.nan_to_num(se_i)], **style)
         if W_i > 0:
             ax_b.errorbar([D_i], [W_i ** 0.4], yerr=[np.nan_to_num(0.4 * W_i ** -0.6 * se_i)], **style)
@@ -363,7 +363,7 @@ def fig13_beverloo(cases: list[dict], path) -> Figure:
         ax.set_xlim(0, 1.1 * D.max())
         ax.set_ylim(0, 1.35 * np.nanmax(y) if np.isfinite(y).any() and np.nanmax(y) > 0 else None)
         ax.legend(fontsize=7, loc="lower right")
-    return _finish(fig, cases, path)
+    return finish_with_rung(fig, cases, path)
 
 
 #: Figure name -> function, in the paper's order (13: Beverloo's law).

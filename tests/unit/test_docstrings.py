@@ -3,7 +3,7 @@
 Public: a module-level function of ``src/postproc/*.py``, or a method of a module-level class there,
 whose name has no leading underscore, in a class whose name has none either (with the methods a
 public class inherits from a private base of the same module, e.g. ``_Cylindrical``); and the
-public methods of :class:`granflow.registry.Scene`. Each needs a docstring, and each that takes
+public methods of :class:`granflow.registry.Scene` (scene_base.py, with the member groups of scene_hooks.py). Each needs a docstring, and each that takes
 parameters (other than ``self``/``cls``) a ``Parameters`` section naming every one of them
 (``Other Parameters`` counts too). Read with :mod:`ast`, nothing is imported: well under a second.
 """
@@ -17,7 +17,9 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[2] / "src"
 POSTPROC = sorted((SRC / "postproc").glob("*.py"))
-REGISTRY = SRC / "granflow" / "registry.py"
+#: the scene interface: the Scene base class and the member groups it mixes in
+INTERFACE = {SRC / "granflow" / "scene_base.py": ("Scene",),
+             SRC / "granflow" / "scene_hooks.py": ("StudyHooks", "CaseNames")}
 
 _SECTION = re.compile(r"^(Parameters|Other Parameters)\n-{3,}\n(.*?)(?=^\S[^\n]*\n-{3,}\n|\Z)", re.M | re.S)
 _FUNCTIONS = (ast.FunctionDef, ast.AsyncFunctionDef)
@@ -55,9 +57,13 @@ def _postproc_functions(path: Path) -> list[tuple[str, ast.AST]]:
 
 
 def _scene_methods() -> list[tuple[str, ast.AST]]:
-    tree = ast.parse(REGISTRY.read_text(), filename=str(REGISTRY))
-    scene = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "Scene")
-    return [(f"registry.Scene.{n.name}", n) for n in scene.body if isinstance(n, _FUNCTIONS) and _public(n.name)]
+    out = []
+    for path, names in INTERFACE.items():
+        tree = ast.parse(path.read_text(), filename=str(path))
+        for cls in (n for n in tree.body if isinstance(n, ast.ClassDef) and n.name in names):
+            out += [(f"{path.stem}.{cls.name}.{n.name}", n) for n in cls.body if isinstance(n, _FUNCTIONS) and _public(n.name)]
+    assert len({name.split(".")[1] for name, _ in out}) == sum(map(len, INTERFACE.values())), "a class of the interface is gone"
+    return out
 
 
 FUNCTIONS = [item for path in POSTPROC for item in _postproc_functions(path)] + _scene_methods()
@@ -82,11 +88,12 @@ def test_the_walk_finds_the_interface():
     names = {name for name, _ in FUNCTIONS}
     assert len(POSTPROC) > 20
     assert {"cg.coarse_grain", "fields.FieldAccumulator.accumulate", "coordinates.RZCoordinates.local_vectors",
-            "registry.Scene.analyse", "registry.Scene.gives"} <= names
+            "scene_base.Scene.analyse", "scene_base.Scene.gives", "scene_hooks.StudyHooks.validation",
+            "scene_hooks.CaseNames.case_dir"} <= names
     assert not any(name.split(".")[-1].startswith("_") for name in names)
 
 
-@pytest.mark.parametrize("path", POSTPROC + [REGISTRY], ids=lambda p: p.name)
+@pytest.mark.parametrize("path", POSTPROC + list(INTERFACE), ids=lambda p: p.name)
 def test_every_public_function_has_a_numpydoc_docstring(path):
     problems = [p for name, node in FUNCTIONS if name.startswith(f"{path.stem}.") for p in _problems(name, node)]
     assert not problems, "\n".join(problems)

@@ -16,10 +16,10 @@ once per particle or once per grid row):
 * per grid row, :math:`a`, the far polynomial (mixed from two rows of
   :math:`\\epsilon`) and its weight, and :math:`a^{-1/2}` (from
   :math:`r_n^{-1/2}`, tabulated once per call) are computed once; per node
-  only :math:`J` remains, a square root and a polynomial (:func:`_estrin`), in
+  only :math:`J` remains, a square root and a polynomial (:func:`postproc.cg_jit.estrin`), in
   a straight loop over the row's nodes that LLVM vectorises, 4 nodes at a time;
 * all K quantities of a particle are added to a node in one pass, 4 at a time
-  (:func:`_add_scaled4`: K is padded to a multiple of 4, a node's values are
+  (:func:`postproc.cg_jit.add_scaled4`: K is padded to a multiple of 4, a node's values are
   contiguous), into the block of the particle's group;
 * particles are visited in order of group, then nearest node in r, then in z (a
   counting sort, O(N)), so that successive particles add into the same nodes,
@@ -44,11 +44,9 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from llvmlite import ir
 from numba import njit
-from numba.core import cgutils, types
-from numba.extending import intrinsic
 
+from .cg_jit import FAR_TERMS, JIT, J_pairs, add_scaled4, far_row, far_weights, fetch_add, near_J, near_full, near_row
 from .rz_tables import FAR_ROWS, NEAR_COLUMNS, table_arrays
 
 #: Particles a thread of :func:`deposit_rz` takes at a time.
@@ -119,7 +117,7 @@ class RZTables:
         """
         a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
         out = np.empty(a.shape)
-        _J_pairs(np.ascontiguousarray(a).reshape(-1), np.ascontiguousarray(b).reshape(-1), *self._args(),
+        J_pairs(np.ascontiguousarray(a).reshape(-1), np.ascontiguousarray(b).reshape(-1), *self._args(),
                  out.reshape(-1))
         return out
 
@@ -131,186 +129,11 @@ class RZTables:
                 self.near_u, self.near_v, self.near_end, 1.0 / self.near_step, u_scale)
 
 
-_JIT = dict(cache=True, error_model="numpy", fastmath=True)
-
-
-@intrinsic
-def _fetch_add(typingctx, counter, delta):
-    """``counter[0] += delta`` in one atomic step, returning the value before.
-
-    The workers of :func:`_deposit_worker` take their next chunk of particles
-    with it (an LLVM ``atomicrmw add``: numba has no atomics on the CPU).
-    """
-    if not (isinstance(counter, types.Array) and counter.dtype == types.int64 and counter.ndim == 1
-            and isinstance(delta, types.Integer)):
-        return None
-
-    def codegen(context, builder, sig, args):
-        array = context.make_array(sig.args[0])(context, builder, args[0])
-        return builder.atomic_rmw("add", array.data, args[1], "monotonic")
-
-    return types.int64(counter, types.int64), codegen
-
-
-_V4 = ir.VectorType(ir.DoubleType(), 4)
-
-
-@intrinsic
-def _add_scaled4(typingctx, out, o, w, q, k):
-    """``out[o:o + 4] += w * q[k:k + 4]`` as one 4-wide fused multiply-add (no bounds test).
-
-    The deposit's innermost operation. Numba runs LLVM's loop vectoriser but
-    not its SLP vectoriser, and a loop over K = 12 values is too short for the
-    former (it would need 16): the packed operation is written out here.
-    """
-    if not all(isinstance(a, types.Array) and a.dtype == types.float64 and a.ndim == 1 and a.layout == "C"
-               for a in (out, q)):
-        return None  # contiguous float64 vectors only: the element offsets are taken as addresses
-
-    def codegen(context, builder, sig, args):
-        out_data = context.make_array(sig.args[0])(context, builder, args[0]).data
-        q_data = context.make_array(sig.args[3])(context, builder, args[3]).data
-        target = builder.bitcast(builder.gep(out_data, [args[1]]), _V4.as_pointer())
-        source = builder.bitcast(builder.gep(q_data, [args[4]]), _V4.as_pointer())
-        zeros = ir.Constant(ir.VectorType(ir.IntType(32), 4), [0, 0, 0, 0])
-        w4 = builder.insert_element(ir.Constant(_V4, ir.Undefined), args[2], ir.Constant(ir.IntType(32), 0))
-        w4 = builder.shuffle_vector(w4, ir.Constant(_V4, ir.Undefined), zeros)
-        fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V4, [_V4] * 3), "llvm.fma.v4f64")
-        total = builder.call(fma, [w4, builder.load(source, align=8), builder.load(target, align=8)])
-        builder.store(total, target, align=8)
-        return context.get_dummy_value()
-
-    return types.void(out, types.uint64, types.float64, q, types.uint64), codegen
-
-
-# Table and buffer indices are unsigned (np.uint64): numba then skips the negative-index
-# wraparound test, which otherwise blocks vectorisation.
-_U1, _U2, _U3 = np.uint64(1), np.uint64(2), np.uint64(3)
-#: Coefficients that :func:`_estrin` evaluates (a far polynomial of lower degree is padded with zeros).
-_FAR_TERMS = 16
-
-
-@njit(inline="always", **_JIT)
-def _cubic(cells, i, j, s):
-    """The cubic of cell ``cells[i, j]`` at ``s`` (Estrin's scheme: a shorter dependency chain than Horner's)."""
-    return (cells[i, j, 0] + s * cells[i, j, 1]) + (s * s) * (cells[i, j, 2] + s * cells[i, j, 3])
-
-
-@njit(inline="always", **_JIT)
-def _estrin(c, y):
-    """:math:`\\sum_{k < 16} c_k y^k` by Estrin's scheme (5 dependent steps where Horner's takes 15)."""
-    y2 = y * y
-    y4 = y2 * y2
-    q0 = (c[0] + c[1] * y) + y2 * (c[2] + c[3] * y)
-    q1 = (c[4] + c[5] * y) + y2 * (c[6] + c[7] * y)
-    q2 = (c[8] + c[9] * y) + y2 * (c[10] + c[11] * y)
-    q3 = (c[12] + c[13] * y) + y2 * (c[14] + c[15] * y)
-    return (q0 + y4 * q1) + (y4 * y4) * (q2 + y4 * q3)
-
-
-@njit(inline="always", **_JIT)
-def _far_row(far, piece, ie, fe, row):
-    """``row``: the far polynomial at epsilon, rows ie and ie + 1 of ``far[piece]`` mixed linearly (fraction fe)."""
-    for k in range(np.uint64(min(far.shape[2], row.shape[0]))):  # never more terms than _estrin takes
-        c0 = far[piece, ie, k]
-        row[k] = c0 + fe * (far[piece, ie + _U1, k] - c0)
-
-
-@njit(inline="always", **_JIT)
-def _far_weights(wz, row, piece, width, y_scale, b_row, w_row, dz2h, gz, j_lo, j_hi):
-    """``wz[j] = w_row gz[j] sqrt(b) F(b)``, b = ``b_row - dz2h[j]``, j in [j_lo, j_hi): a vectorised loop.
-
-    Piece 0 sets every node (b <= 0 gives 0), a further one overwrites the
-    nodes with b in ``[piece width, (piece + 1) width)``.
-    """
-    if piece == 0:
-        for j in range(np.uint64(j_lo), np.uint64(j_hi)):
-            b = max(b_row - dz2h[j], 0.0)
-            wz[j] = w_row * gz[j] * np.sqrt(b) * _estrin(row, b * y_scale - 1.0)
-    else:
-        b_0 = piece * width
-        for j in range(np.uint64(j_lo), np.uint64(j_hi)):
-            b = b_row - dz2h[j]
-            if b >= b_0:
-                wz[j] = w_row * gz[j] * np.sqrt(b) * _estrin(row, (b - b_0) * y_scale - 1.0)
-
-
-@njit(inline="always", **_JIT)
-def _near_row(a, a_scale, n_a):
-    """First of the four table rows around a and their cubic Lagrange weights."""
-    xa = a * a_scale
-    ia = np.uint64(xa)
-    cap = np.uint64(n_a - 1)
-    if ia > cap:
-        ia = cap
-    x = xa - ia
-    l0 = -x * (x - 1.0) * (x - 2.0) / 6.0
-    l1 = (x + 1.0) * (x - 1.0) * (x - 2.0) / 2.0
-    l2 = -(x + 1.0) * x * (x - 2.0) / 2.0
-    l3 = (x + 1.0) * x * (x - 1.0) / 6.0
-    return ia, l0, l1, l2, l3  # rows ia .. ia + 3 hold a = (ia - 1 .. ia + 2) h_a
-
-
-@njit(inline="always", **_JIT)
-def _near_value(cells, ia, l0, l1, l2, l3, u):
-    """U or V-tilde at (a, u): cubic Lagrange in a (weights l), the cell's cubic in u (column units)."""
-    iu = np.uint64(u)
-    cap = np.uint64(cells.shape[1] - 1)
-    if iu > cap:
-        iu = cap
-    s = u - iu
-    return (l0 * _cubic(cells, ia, iu, s) + l1 * _cubic(cells, ia + _U1, iu, s)
-            + l2 * _cubic(cells, ia + _U2, iu, s) + l3 * _cubic(cells, ia + _U3, iu, s))
-
-
-@njit(inline="always", **_JIT)
-def _near_full(near_end, ia, l0, l1, l2, l3, e_a):
-    """J_pi(a) = U(a, 2^-1/2) + e^-a V-tilde(a, 2^-1/2)."""
-    a1, a2, a3 = ia + _U1, ia + _U2, ia + _U3
-    return (l0 * (near_end[ia, 0] + e_a * near_end[ia, 1]) + l1 * (near_end[a1, 0] + e_a * near_end[a1, 1])
-            + l2 * (near_end[a2, 0] + e_a * near_end[a2, 1]) + l3 * (near_end[a3, 0] + e_a * near_end[a3, 1]))
-
-
-@njit(inline="always", **_JIT)
-def _near_J(b, a, inv_2a, full, e_a, near_u, near_v, ia, l0, l1, l2, l3, u_scale):
-    if b >= 2.0 * a:
-        return full
-    x = b * inv_2a
-    if x <= 0.5:
-        return _near_value(near_u, ia, l0, l1, l2, l3, np.sqrt(x) * u_scale)
-    return full - e_a * _near_value(near_v, ia, l0, l1, l2, l3, np.sqrt(1.0 - x) * u_scale)
-
-
-@njit(**_JIT)
-def _J_pairs(a_arr, b_arr, C, a_split, far, eps_scale, y_scale, near_u, near_v, near_end, a_scale, u_scale, out):
-    """J(a, b) pair by pair (test hook of the interpolation used in the deposit)."""
-    n_a = near_u.shape[0] - 3
-    width = 2.0 / y_scale
-    row = np.zeros(_FAR_TERMS)
-    for p in range(a_arr.shape[0]):
-        a, b = a_arr[p], b_arr[p]
-        if b <= 0.0:
-            out[p] = 0.0
-        elif a >= a_split:
-            b = min(b, C)
-            fe = eps_scale / a
-            ie = np.uint64(fe)
-            piece = min(np.uint64(b / width), np.uint64(far.shape[0] - 1))
-            _far_row(far, piece, ie, fe - ie, row)
-            out[p] = np.sqrt(b) * _estrin(row, (b - piece * width) * y_scale - 1.0) / np.sqrt(a)
-        else:
-            ia, l0, l1, l2, l3 = _near_row(a, a_scale, n_a)
-            e_a = np.exp(-a)
-            full = _near_full(near_end, ia, l0, l1, l2, l3, e_a)
-            inv_2a = 0.5 / a if a > 0.0 else 0.0
-            out[p] = _near_J(b, a, inv_2a, full, e_a, near_u, near_v, ia, l0, l1, l2, l3, u_scale)
-
-
 #: Values are padded with zeros to a multiple of this many columns, added 4 at a time.
 _BLOCK = 4
 
 
-@njit(inline="always", **_JIT)
+@njit(inline="always", **JIT)
 def _deposit_row(out, o, wz, j_lo, j_hi, q):
     """out[o + (j - j_lo) K + k] += wz[j] q[k] for j in [j_lo, j_hi), k < K = len(q), a multiple of 4."""
     n_pad = np.uint64(q.shape[0])
@@ -319,17 +142,17 @@ def _deposit_row(out, o, wz, j_lo, j_hi, q):
         w = wz[j]
         k = np.uint64(0)
         while k + u12 <= n_pad:  # three blocks at a time: no loop overhead up to K = 12
-            _add_scaled4(out, o + k, w, q, k)
-            _add_scaled4(out, o + k + u4, w, q, k + u4)
-            _add_scaled4(out, o + k + u8, w, q, k + u8)
+            add_scaled4(out, o + k, w, q, k)
+            add_scaled4(out, o + k + u4, w, q, k + u4)
+            add_scaled4(out, o + k + u8, w, q, k + u8)
             k += u12
         while k < n_pad:
-            _add_scaled4(out, o + k, w, q, k)
+            add_scaled4(out, o + k, w, q, k)
             k += u4
         o += n_pad
 
 
-@njit(**_JIT)
+@njit(**JIT)
 def _visiting_order(r, z, groups, n_groups, r0, hr, n_r, z0, hz, n_z):
     """Particle indices by group, then nearest node in r, then in z (a stable counting sort)."""
     n = r.shape[0]
@@ -352,7 +175,7 @@ def _visiting_order(r, z, groups, n_groups, r0, hr, n_r, z0, hz, n_z):
     return order
 
 
-@njit(**_JIT)
+@njit(**JIT)
 def _deposit_particles(order, start, stop, r, z, values, groups, grid, kernel, tables, inv_r, inv_sqrt_r, gz, dz2h,
                        wz, row, q, out):
     """Add particles ``order[start:stop]`` into ``out`` of shape (groups, n_r, n_z, K padded), flat.
@@ -365,7 +188,7 @@ def _deposit_particles(order, start, stop, r, z, values, groups, grid, kernel, t
     ``(1/2 sigma^2, C, 1/pi Z)``, ``tables`` is :meth:`RZTables._args` without
     C. ``inv_r`` and ``inv_sqrt_r`` hold :math:`1/r_n` and :math:`r_n^{-1/2}`
     (0 on the axis); ``gz``, ``dz2h`` and ``wz`` are scratch arrays of length
-    n_z, ``row`` of :data:`_FAR_TERMS` and ``q`` of the padded K.
+    n_z, ``row`` of :data:`FAR_TERMS` and ``q`` of the padded K.
     """
     r0, hr, n_r, z0, hz, n_z = grid
     half_inv_var, C, norm = kernel
@@ -436,17 +259,17 @@ def _deposit_particles(order, start, stop, r, z, values, groups, grid, kernel, t
                 for piece in range(far.shape[0]):  # one piece unless C > FAR_PIECE
                     if piece * width >= b_row:
                         break
-                    _far_row(far, np.uint64(piece), np.uint64(ie), fe, row)
-                    _far_weights(wz, row, piece, width, y_scale, b_row, w_row, dz2h, gz, j_lo, j_hi)
+                    far_row(far, np.uint64(piece), np.uint64(ie), fe, row)
+                    far_weights(wz, row, piece, width, y_scale, b_row, w_row, dz2h, gz, j_lo, j_hi)
             else:
-                ia, l0, l1, l2, l3 = _near_row(a, a_scale, n_a)
+                ia, l0, l1, l2, l3 = near_row(a, a_scale, n_a)
                 e_a = np.exp(-a)
-                full = _near_full(near_end, ia, l0, l1, l2, l3, e_a)
+                full = near_full(near_end, ia, l0, l1, l2, l3, e_a)
                 inv_2a = 0.5 / a if a > 0.0 else 0.0
                 for j in range(j_lo, j_hi):
                     b = b_row - dz2h[j]
                     if b > 0.0:  # d < c strictly, as in the numpy path (on the axis J(a, 0+) = pi)
-                        wz[j] = g_row * gz[j] * _near_J(b, a, inv_2a, full, e_a, near_u, near_v,
+                        wz[j] = g_row * gz[j] * near_J(b, a, inv_2a, full, e_a, near_u, near_v,
                                                         ia, l0, l1, l2, l3, u_scale)
                     else:
                         wz[j] = 0.0
@@ -468,7 +291,7 @@ def padded(n_k: int) -> int:
     return -(-n_k // _BLOCK) * _BLOCK
 
 
-@njit(**_JIT)
+@njit(**JIT)
 def _prepare(r, z, groups, n_groups, grid):
     """The visiting order, and :math:`1/r_n`, :math:`r_n^{-1/2}` per grid row (0 on the axis)."""
     r0, hr, n_r, z0, hz, n_z = grid
@@ -483,7 +306,7 @@ def _prepare(r, z, groups, n_groups, grid):
     return order, inv_r, inv_sqrt_r
 
 
-@njit(nogil=True, **_JIT)
+@njit(nogil=True, **JIT)
 def _deposit_worker(worker, counters, order, r, z, values, groups, grid, kernel, tables, inv_r, inv_sqrt_r,
                     scratch, buffer):
     """One worker: chunks of :data:`CHUNK` particles of the visiting order, added into ``buffer``.
@@ -496,20 +319,20 @@ def _deposit_worker(worker, counters, order, r, z, values, groups, grid, kernel,
     """
     n_z = grid[5]
     n_pad = -(-values.shape[1] // _BLOCK) * _BLOCK
-    q, row = scratch[:n_pad], scratch[-_FAR_TERMS:]  # row: zeros beyond the far polynomials' terms
+    q, row = scratch[:n_pad], scratch[-FAR_TERMS:]  # row: zeros beyond the far polynomials' terms
     gz, dz2h, wz = scratch[n_pad:][:n_z], scratch[n_pad + n_z:][:n_z], scratch[n_pad + 2 * n_z:][:n_z]
     n, n_workers = r.shape[0], counters.shape[0] // 8
     for i in range(n_workers):
         stretch = (worker + i) % n_workers
         stop = (n * (stretch + 1)) // n_workers
-        start = _fetch_add(counters[8 * stretch:], CHUNK)
+        start = fetch_add(counters[8 * stretch:], CHUNK)
         while start < stop:
             _deposit_particles(order, start, min(start + CHUNK, stop), r, z, values, groups, grid, kernel, tables,
                                inv_r, inv_sqrt_r, gz, dz2h, wz, row, q, buffer)
-            start = _fetch_add(counters[8 * stretch:], CHUNK)
+            start = fetch_add(counters[8 * stretch:], CHUNK)
 
 
-@njit(**_JIT)
+@njit(**JIT)
 def _unpadded_sum(buffers, workers, n_k):
     """Sum of the buffers of ``workers``, without the padding: shape (nodes of all groups, K)."""
     n_pad = -(-n_k // _BLOCK) * _BLOCK
@@ -547,7 +370,7 @@ def _deposit_threads(r, z, values, groups, n_groups, grid, kernel, tables, n_wor
     # rows on cache lines of their own: 4-wide additions never straddle two lines, and no line
     # is shared between workers (it would bounce between the cores)
     buffers = _aligned_zeros(n_workers, size)
-    scratch = _aligned_zeros(n_workers, n_pad + _FAR_TERMS + 3 * n_z)
+    scratch = _aligned_zeros(n_workers, n_pad + FAR_TERMS + 3 * n_z)
     # the next particle of each worker's stretch of the order, a cache line per counter
     counters = _aligned_zeros(1, 8 * n_workers)[0].view(np.int64)
     counters[::8] = (len(r) * np.arange(n_workers)) // n_workers

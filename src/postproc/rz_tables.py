@@ -88,7 +88,7 @@ from numpy.polynomial import chebyshev
 from numpy.polynomial.legendre import leggauss
 
 #: Far polynomials: rows over epsilon = 1/a in [0, 1/a_s]; the degree in b (at most 15: the compiled
-#: evaluation, ``postproc.cg_compiled._estrin``, takes 16 coefficients).
+#: evaluation, ``postproc.cg_jit.estrin``, takes 16 coefficients).
 FAR_ROWS, FAR_DEGREE = 1025, 15
 #: Widest piece of [0, C] in b that one far polynomial spans (a larger C is cut into equal pieces).
 FAR_PIECE = 8.0

@@ -44,7 +44,8 @@ import numpy as np
 
 from .kernels_common import (DEPOSIT_CHUNK, Assignment, as_axes, check_dimension,  # noqa: F401 (re-exported)
                              deposit_by_assignment, grid_columns)
-from .kernels_radial import AZIMUTHAL_QUADRATURE_POINTS, Gaussian, Lucy, RadialKernel  # noqa: F401 (re-exported)
+from .kernels_lucy import Lucy  # noqa: F401 (re-exported)
+from .kernels_radial import AZIMUTHAL_QUADRATURE_POINTS, Gaussian, RadialKernel  # noqa: F401 (re-exported)
 
 
 def channel_bin_edges(

@@ -45,12 +45,13 @@ demo: $(STAMP)
 	start=$$(date +%s) && $(BIN)/snakemake --cores $(CORES) --report report.html \
 		&& echo $$(( $$(date +%s) - $$start )) > results/timing/report_seconds
 
+# one worker per core (pytest-xdist), each test file on one worker so a file's shared fixtures run once
 test: $(STAMP)
-	PATH="$(CURDIR)/$(BIN):$$PATH" $(BIN)/python -m pytest -q
+	PATH="$(CURDIR)/$(BIN):$$PATH" $(BIN)/python -m pytest -q -n auto --dist loadfile
 
 # the Hypothesis profile granflow-thorough (tests/conftest.py): 20x the examples, a new seed each run
 test-thorough: $(STAMP)
-	GRANFLOW_THOROUGH=1 PATH="$(CURDIR)/$(BIN):$$PATH" $(BIN)/python -m pytest -q
+	GRANFLOW_THOROUGH=1 PATH="$(CURDIR)/$(BIN):$$PATH" $(BIN)/python -m pytest -q -n auto --dist loadfile
 
 test-slurm: $(STAMP)
 	bash tests/slurm/run.sh

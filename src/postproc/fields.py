@@ -99,7 +99,7 @@ from typing import Iterable, Sequence
 import numpy as np
 import pandas as pd
 
-from .blocks import _SUBBLOCKS_PER_BLOCK, ConcludedResult, _BlockedSums, time_average_errors
+from .blocks import SUBBLOCKS_PER_BLOCK, ConcludedResult, BlockedSums, time_average_errors
 from .contacts import ContactFrame, branch_quadrature
 from .coordinates import XCoordinates
 from .fields_definitions import (ALL_FIELDS, FIELD_PRIMITIVES, FIELDS, PRESSURES, PRIMITIVES,  # noqa: F401 (re-exported)
@@ -214,7 +214,7 @@ class FieldAccumulator(ConcludedResult):
         self._reset()
 
     def _reset(self) -> None:
-        self._sums: _BlockedSums | None = None
+        self._sums: BlockedSums | None = None
         self._n_particles = 0
         self.coverage: float | None = None
         self._fields: tuple[str, ...] | None = None
@@ -236,7 +236,7 @@ class FieldAccumulator(ConcludedResult):
     def prepare(self) -> None:
         """Start a new average (discarding any previous one)."""
         self._reset()
-        self._sums = _BlockedSums(_SUBBLOCKS_PER_BLOCK * self.n_blocks)
+        self._sums = BlockedSums(SUBBLOCKS_PER_BLOCK * self.n_blocks)
         self._prepared = True
 
     def accumulate(self, frame: ParticleFrame, contacts: ContactFrame | None = None) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from postproc.blocks import _SUBBLOCKS_PER_BLOCK, ConcludedResult, _BlockedSums, time_average_errors
+from postproc.blocks import SUBBLOCKS_PER_BLOCK, ConcludedResult, BlockedSums, time_average_errors
 from postproc.frame import ParticleFrame
 
 from .surface import HeapGeometry, SurfaceFit, _volume_pairs
@@ -170,7 +170,7 @@ class KinematicsAccumulator(ConcludedResult):
         self.n_blocks = int(n_blocks)
         self.shape = (len(self.x_edges) - 1, len(self.z_edges) - 1)
         self.bin_volume = (np.outer(np.diff(self.x_edges), np.diff(self.z_edges)) * self.T).ravel()
-        self._sums: _BlockedSums | None = None
+        self._sums: BlockedSums | None = None
         self._result: pd.DataFrame | None = None
 
     # columns of the per-frame sums
@@ -178,7 +178,7 @@ class KinematicsAccumulator(ConcludedResult):
 
     def prepare(self) -> None:
         """Start a new average (discarding any previous one)."""
-        self._sums = _BlockedSums(_SUBBLOCKS_PER_BLOCK * self.n_blocks)
+        self._sums = BlockedSums(SUBBLOCKS_PER_BLOCK * self.n_blocks)
         self._result = None
 
     def accumulate(self, x, z, u, w, radius, type=None, *, weight_axis: str | None = "z") -> None:

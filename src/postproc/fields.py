@@ -106,7 +106,7 @@ from .fields_definitions import (ALL_FIELDS, FIELD_PRIMITIVES, FIELDS, PRESSURES
                                  SPECIES_FIELDS, SPECIES_PRIMITIVES, VECTOR, derive, field_columns, species_columns)
 from .frame import ParticleFrame
 from .kernels import HeavisideBins, channel_bin_edges
-from .overlap import _slab_pairs
+from .overlap import slab_pairs
 
 #: Below this fraction of the particles' kernel weight on the grid, :meth:`FieldAccumulator.conclude`
 #: warns (:class:`SparseGridWarning`): the axis or the range probably misses the material.
@@ -480,7 +480,7 @@ class FieldAccumulator(ConcludedResult):
     def _exact_volume(self, frame: ParticleFrame, points, groups=None, n_groups: int = 1) -> np.ndarray:
         """Sphere volumes split exactly over the slabs, per slab volume, shape (n_groups, n_slabs)."""
         (edges,) = self.kernel.edges
-        particle, slab, fraction = _slab_pairs(np.asarray(points, float)[:, 0], frame.radius, edges)
+        particle, slab, fraction = slab_pairs(np.asarray(points, float)[:, 0], frame.radius, edges)
         n_slabs = len(edges) - 1
         index = slab if groups is None else groups[particle] * n_slabs + slab
         volumes = self.kernel.node_volumes(self.coordinates, frame.box)  # this frame's, as the bins' weights

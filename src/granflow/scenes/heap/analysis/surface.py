@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from postproc.overlap import _fraction_below, _slab_pairs, sphere_slab_fraction  # noqa: F401
+from postproc.overlap import fraction_below, slab_pairs, sphere_slab_fraction  # noqa: F401
 
 #: Volume-fraction cutoff of the free surface, :math:`f_c` (paper, section 3.1).
 PHI_C = 0.35
@@ -156,11 +156,11 @@ def _volume_pairs(a, b, radius, a_edges, b_edges, split: str | None):
     n_b = len(b_edges) - 1
     if split == "b":
         ia = _centre_bins(a, a_edges)
-        p, ib, f = _slab_pairs(b, radius, b_edges)
+        p, ib, f = slab_pairs(b, radius, b_edges)
         ia = ia[p]
     elif split == "a":
         ib = _centre_bins(b, b_edges)
-        p, ia, f = _slab_pairs(a, radius, a_edges)
+        p, ia, f = slab_pairs(a, radius, a_edges)
         ib = ib[p]
     elif split is None:
         p = np.arange(len(a))

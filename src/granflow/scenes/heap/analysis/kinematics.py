@@ -275,8 +275,23 @@ def accumulate_frame(accumulator: KinematicsAccumulator, frame: ParticleFrame, m
 
 
 # --------------------------------------------------------------------------- one profile
-def _profile(z, u, z_max: float | None = None):
-    """Finite points of a profile sorted by z, optionally only :math:`z \\le z_{max}`."""
+def finite_profile(z, u, z_max: float | None = None):
+    """Finite points of a profile sorted by z, optionally only :math:`z \\le z_{max}`.
+
+    Parameters
+    ----------
+    z : array_like, shape (n,)
+        Depth of each point, m (relative to the free surface: :math:`z = 0` on it, negative below).
+    u : array_like, shape (n,)
+        The profile's value at each point (e.g. a velocity, m/s).
+    z_max : float, optional
+        Keep only points at or below this depth, m; None keeps all.
+
+    Returns
+    -------
+    z, u : ndarray of float, shape (m,)
+        The points where both are finite (and ``z <= z_max``), in increasing z (a stable sort).
+    """
     z, u = np.asarray(z, dtype=float).ravel(), np.asarray(u, dtype=float).ravel()
     ok = np.isfinite(z) & np.isfinite(u)
     if z_max is not None:
@@ -285,8 +300,20 @@ def _profile(z, u, z_max: float | None = None):
     return z[ok][order], u[ok][order]
 
 
-def _surface_tolerance(z) -> float:
-    """Round-off allowance for 'z <= 0' on bin centres."""
+def surface_tolerance(z) -> float:
+    """Round-off allowance for 'z <= 0' on bin centres.
+
+    Parameters
+    ----------
+    z : array_like
+        Bin centres' depths relative to the free surface, m (any shape).
+
+    Returns
+    -------
+    float
+        :math:`10^{-9}` times the largest finite :math:`|z|`, m (:math:`10^{-9}` when none is finite):
+        a centre at or below this counts as at or below the surface.
+    """
     z = np.asarray(z, dtype=float)
     scale = np.nanmax(np.abs(z)) if np.isfinite(z).any() else 1.0
     return 1e-9 * scale
@@ -299,7 +326,7 @@ def surface_velocity(z, u) -> float:
     above the surface, extrapolated from the two highest points provided the
     highest is within one spacing of the surface; NaN otherwise.
     """
-    z, u = _profile(z, u)
+    z, u = finite_profile(z, u)
     if len(z) == 0:
         return float("nan")
     if z[0] <= 0.0 <= z[-1]:

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import curve_fit
 
-from .kinematics import MovingFrame, _profile, _surface_tolerance, surface_velocity
+from .kinematics import MovingFrame, finite_profile, surface_tolerance, surface_velocity
 from .surface import (
     PHI_C,
     CUTOFF_FRACTION,
@@ -48,7 +48,7 @@ def delta_exponential(z, u, u_s) -> ExponentialDepth:
         ``(delta, z0)``, m; NaN with fewer than three points or a failed fit.
     """
     nan = ExponentialDepth(float("nan"), float("nan"))
-    z, u = _profile(z, u, _surface_tolerance(z))
+    z, u = finite_profile(z, u, surface_tolerance(z))
     keep = u > EXPONENTIAL_FIT_MIN_FRACTION * u_s
     z, u = z[keep], u[keep]
     if not (np.isfinite(u_s) and u_s > 0) or len(z) < 3:
@@ -76,7 +76,7 @@ def delta_linear(z, u, u_s) -> float:
     :math:`\\delta = -z_{bottom}`, m. NaN with fewer than two points or a
     non-positive slope.
     """
-    z, u = _profile(z, u, _surface_tolerance(z))
+    z, u = finite_profile(z, u, surface_tolerance(z))
     if not (np.isfinite(u_s) and u_s > 0):
         return float("nan")
     keep = (u >= LINEAR_RANGE[0] * u_s) & (u <= LINEAR_RANGE[1] * u_s)
@@ -94,7 +94,7 @@ def delta_cutoff(z, u, u_s, fraction: float = CUTOFF_FRACTION) -> float:
     above it bracket the bottom of the layer, interpolated linearly;
     :math:`\\delta = -z_{bottom}`, m. NaN if :math:`u` never falls that low.
     """
-    z, u = _profile(z, u, _surface_tolerance(z))
+    z, u = finite_profile(z, u, surface_tolerance(z))
     if not (np.isfinite(u_s) and u_s > 0) or len(z) == 0:
         return float("nan")
     z, u = z[::-1], u[::-1]  # from the surface down
@@ -231,12 +231,12 @@ def _column_kinematics(group: pd.DataFrame, n_types: int, d_ref: float) -> dict:
     row["delta"] = delta
     if not np.isfinite(delta):
         return row
-    layer = (z > -delta) & (z <= _surface_tolerance(z))
+    layer = (z > -delta) & (z <= surface_tolerance(z))
     row["n_profile"] = int(np.sum(layer & finite))
     if row["n_profile"] < MIN_LAYER_POINTS:
         return row
     row["usable"] = True
-    zp, up = _profile(z, u)
+    zp, up = finite_profile(z, u)
     row["gamma_bar"] = float((u_s - np.interp(-delta, zp, up)) / delta)
     if "d_mean" in group and "n" in group:
         n, d = _column(group, "n")[layer], _column(group, "d_mean")[layer]
@@ -471,7 +471,7 @@ def collapse(profile: pd.DataFrame, per_x: pd.DataFrame, v_r_normal: float | Non
     keep = per_x["usable"].astype(bool) if "usable" in per_x else np.isfinite(per_x["delta"])
     scales = per_x.loc[keep, ["x", "u_s", "delta"]]
     merged = profile.merge(scales, on="x", how="inner")
-    merged = merged[merged["z"] <= _surface_tolerance(merged["z"])]
+    merged = merged[merged["z"] <= surface_tolerance(merged["z"])]
     w = _column(merged, "w")
     out = pd.DataFrame({
         "x": merged["x"].to_numpy(float), "z": merged["z"].to_numpy(float),

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 
 from .kinematics import MovingFrame
-from .layer import _column
+from .layer import column
 from .surface import HeapGeometry, SurfaceFit, _centre_bins, uniform_edges
 
 
@@ -147,7 +147,7 @@ def deposit_contrast(deposit: pd.DataFrame, x_lo: float, x_hi: float, weight: st
     dict
         ``contrast, upstream, downstream, n`` (particles); NaN without particles in a half.
     """
-    x, c, n, w = (_column(deposit, k) for k in ("x_lab", "c_s", "n", weight))
+    x, c, n, w = (column(deposit, k) for k in ("x_lab", "c_s", "n", weight))
     ok = (np.isfinite(x) & np.isfinite(c) & np.isfinite(n) & (n > 0) & np.isfinite(w) & (w > 0)
           & (x >= x_lo) & (x <= x_hi))
     mid = 0.5 * (x_lo + x_hi)

@@ -186,7 +186,21 @@ def fit_power_law(x, y) -> PowerLawFit:
 
 
 # --------------------------------------------------------------------------- along the heap
-def _column(df: pd.DataFrame, name: str) -> np.ndarray:
+def column(df: pd.DataFrame, name: str) -> np.ndarray:
+    """A column of a table as floats; all NaN when the table has no such column.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The table (e.g. the heap's per-x layer table).
+    name : str
+        The column's name.
+
+    Returns
+    -------
+    ndarray of float, shape (len(df),)
+        The column's values, in their unit.
+    """
     return df[name].to_numpy(dtype=float) if name in df else np.full(len(df), np.nan)
 
 
@@ -239,13 +253,13 @@ def _column_kinematics(group: pd.DataFrame, n_types: int, d_ref: float) -> dict:
     zp, up = finite_profile(z, u)
     row["gamma_bar"] = float((u_s - np.interp(-delta, zp, up)) / delta)
     if "d_mean" in group and "n" in group:
-        n, d = _column(group, "n")[layer], _column(group, "d_mean")[layer]
+        n, d = column(group, "n")[layer], column(group, "d_mean")[layer]
         ok = np.isfinite(n) & np.isfinite(d) & (n > 0)
         row["d_bar"] = float(np.sum(n[ok] * d[ok]) / np.sum(n[ok])) if ok.any() else nan
     else:
         row["d_bar"] = float(d_ref)
     if n_types == 2 and "phi_1" in group and "phi_2" in group:
-        f1, f2 = np.nansum(_column(group, "phi_1")[layer]), np.nansum(_column(group, "phi_2")[layer])
+        f1, f2 = np.nansum(column(group, "phi_1")[layer]), np.nansum(column(group, "phi_2")[layer])
         row["c_s"] = float(f1 / (f1 + f2)) if f1 + f2 > 0 else nan
     return row
 
@@ -472,7 +486,7 @@ def collapse(profile: pd.DataFrame, per_x: pd.DataFrame, v_r_normal: float | Non
     scales = per_x.loc[keep, ["x", "u_s", "delta"]]
     merged = profile.merge(scales, on="x", how="inner")
     merged = merged[merged["z"] <= surface_tolerance(merged["z"])]
-    w = _column(merged, "w")
+    w = column(merged, "w")
     out = pd.DataFrame({
         "x": merged["x"].to_numpy(float), "z": merged["z"].to_numpy(float),
         "zt": (merged["z"] / merged["delta"]).to_numpy(float),
@@ -499,7 +513,7 @@ def delta_over_local_d(per_x: pd.DataFrame, x_range=DELTA_MEAN_RANGE) -> tuple[f
     mean, n : float, int
         NaN and 0 without a usable bin in the range.
     """
-    xl, delta, d = (_column(per_x, k) for k in ("x_over_L", "delta", "d_bar"))
+    xl, delta, d = (column(per_x, k) for k in ("x_over_L", "delta", "d_bar"))
     usable = per_x["usable"].astype(bool).to_numpy() if "usable" in per_x else np.isfinite(delta)
     sel = usable & (xl >= x_range[0]) & (xl <= x_range[1]) & np.isfinite(delta) & np.isfinite(d) & (d > 0)
     return (float(np.mean(delta[sel] / d[sel])), int(sel.sum())) if sel.any() else (float("nan"), 0)

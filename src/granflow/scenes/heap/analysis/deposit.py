@@ -7,7 +7,7 @@ import pandas as pd
 
 from .kinematics import MovingFrame
 from .layer import column
-from .surface import HeapGeometry, SurfaceFit, _centre_bins, uniform_edges
+from .surface import HeapGeometry, SurfaceFit, centre_bins, uniform_edges
 
 
 def deposit_concentration(position, radius, type, fit: SurfaceFit, geometry: HeapGeometry,
@@ -55,7 +55,7 @@ def deposit_concentration(position, radius, type, fit: SurfaceFit, geometry: Hea
     if y_range is not None:
         inside &= (position[:, 1] >= y_range[0]) & (position[:, 1] <= y_range[1])
     edges = uniform_edges(0.0, geometry.W, dx)
-    col = _centre_bins(position[:, 0], edges)
+    col = centre_bins(position[:, 0], edges)
     inside &= col >= 0
     vol = 4.0 / 3.0 * np.pi * radius**3
     n_cols = len(edges) - 1

@@ -7,7 +7,7 @@ import pandas as pd
 from postproc.blocks import SUBBLOCKS_PER_BLOCK, ConcludedResult, BlockedSums, time_average_errors
 from postproc.frame import ParticleFrame
 
-from .surface import HeapGeometry, SurfaceFit, _volume_pairs
+from .surface import HeapGeometry, SurfaceFit, volume_pairs
 
 
 # --------------------------------------------------------------------------- moving frame
@@ -206,11 +206,11 @@ class KinematicsAccumulator(ConcludedResult):
         if weight_axis not in ("z", "x", None):
             raise ValueError(f"weight_axis must be 'z', 'x' or None, got {weight_axis!r}")
         split = {"z": "b", "x": "a", None: None}[weight_axis]
-        p, flat, vol = _volume_pairs(x, z, radius, self.x_edges, self.z_edges, split)
+        p, flat, vol = volume_pairs(x, z, radius, self.x_edges, self.z_edges, split)
         n_bins = self.bin_volume.size
         per_pair = [vol, vol * u[p], vol * w[p], vol * u[p] ** 2, vol * w[p] ** 2]
         sums = [np.bincount(flat, weights=q, minlength=n_bins) for q in per_pair]
-        cp, cflat, _ = _volume_pairs(x, z, radius, self.x_edges, self.z_edges, None)
+        cp, cflat, _ = volume_pairs(x, z, radius, self.x_edges, self.z_edges, None)
         sums.append(np.bincount(cflat, minlength=n_bins).astype(float))
         sums.append(np.bincount(cflat, weights=2.0 * radius[cp], minlength=n_bins))
         for k in range(1, self.n_types + 1):

@@ -22,7 +22,7 @@ from .surface import (
     TAIL_RANGE,
     HeapGeometry,
     SurfaceFit,
-    _line_fit,
+    line_fit,
     free_surface,
 )
 
@@ -53,7 +53,7 @@ def delta_exponential(z, u, u_s) -> ExponentialDepth:
     z, u = z[keep], u[keep]
     if not (np.isfinite(u_s) and u_s > 0) or len(z) < 3:
         return nan
-    a, b, _, _ = _line_fit(z, np.log(u))
+    a, b, _, _ = line_fit(z, np.log(u))
     if not (np.isfinite(b) and b > 0):
         return nan
     try:
@@ -82,7 +82,7 @@ def delta_linear(z, u, u_s) -> float:
     keep = (u >= LINEAR_RANGE[0] * u_s) & (u <= LINEAR_RANGE[1] * u_s)
     if keep.sum() < 2:
         return float("nan")
-    a, b, _, _ = _line_fit(z[keep], u[keep])
+    a, b, _, _ = line_fit(z[keep], u[keep])
     return float(a / b) if np.isfinite(b) and b > 0 else float("nan")
 
 
@@ -158,7 +158,7 @@ def fit_exponential_tail(zt, ut, lo: float = TAIL_RANGE[0], hi: float = TAIL_RAN
     ok = np.isfinite(zt) & np.isfinite(ut) & (zt > lo) & (zt < hi) & (ut > 0)
     if ok.sum() < 2:
         return TailFit(*(float("nan"),) * 4)
-    a, k, a_se, k_se = _line_fit(zt[ok], np.log(ut[ok]))
+    a, k, a_se, k_se = line_fit(zt[ok], np.log(ut[ok]))
     A = float(np.exp(a))
     return TailFit(A, k, A * a_se, k_se)
 
@@ -181,7 +181,7 @@ def fit_power_law(x, y) -> PowerLawFit:
     ok = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
     if ok.sum() < 2:
         return PowerLawFit(*(float("nan"),) * 3)
-    a, b, _, b_se = _line_fit(np.log(x[ok]), np.log(y[ok]))
+    a, b, _, b_se = line_fit(np.log(x[ok]), np.log(y[ok]))
     return PowerLawFit(float(np.exp(a)), b, b_se)
 
 

@@ -63,7 +63,7 @@ from granflow.plotting import (
 )
 from granflow.plotting import finish_cases as _finish
 
-from .figure_style import _case_style, _no_case
+from .figure_style import case_style, no_case
 from .figures_surface import fig04b_surface_shape
 
 #: Volume-fraction cutoff that locates the free surface (paper §3.1).
@@ -148,14 +148,14 @@ def fig03_segregation(cases: list[dict], path) -> Figure:
     ax = axes[0, 0]
     ax.set(xlabel=r"$x_{lab}$ [m]", ylabel=r"$c_s$", title="small-particle concentration in the deposit")
     if not cases:
-        _no_case(axes)
+        no_case(axes)
         return _finish(fig, cases, path)
     bi = [(i, c) for i, c in enumerate(cases) if c.get("bidisperse")]
     drawn = False
     for i, case in bi:
         dep = frame(case, "deposit")
         drawn |= plot(ax, float_column(dep, "x_lab"), float_column(dep, "c_s"), ms=4, lw=0.8, label=case_label(case),
-                       **_case_style(i, case))
+                       **case_style(i, case))
     if not bi:
         say(ax, "no bidisperse case:\nc_s(x) is not defined for one species", fontsize=11)
     elif not drawn:
@@ -187,7 +187,7 @@ def fig04_surface(cases: list[dict], path) -> Figure:
     inset.set_ylabel(r"$\alpha$ [°]", fontsize=7)
     inset.tick_params(labelsize=6)
     if not cases:
-        _no_case([ax_phi, ax_s, ax_t])
+        no_case([ax_phi, ax_s, ax_t])
         return _finish(fig, cases, path)
     case = cases[0]
 
@@ -278,7 +278,7 @@ def fig05_velocity(cases: list[dict], path) -> Figure:
     ax_g.set(xlabel=r"$z$ [mm] (0 at the free surface)", ylabel=r"$\dot\gamma = \partial u/\partial z$ [1/s]",
              title="(b) shear rate")
     if not cases:
-        _no_case(axes)
+        no_case(axes)
         return _finish(fig, cases, path)
     case = cases[0]
     prof = frame(case, "profile")
@@ -321,7 +321,7 @@ def fig06_streamwise(cases: list[dict], path) -> Figure:
     ax_g.set(ylabel=r"$\bar{\dot\gamma}$ [1/s]", title="(c) flowing-layer mean shear rate")
     ax_d.set(ylabel=r"$\delta$ [mm]", title="(d) flowing-layer thickness")
     if not cases:
-        _no_case(axes)
+        no_case(axes)
         return _finish(fig, cases, path)
     case = cases[0]
     px = frame(case, "per_x")
@@ -369,7 +369,7 @@ def fig07_collapse(cases: list[dict], path) -> Figure:
     ax_log.set_title("(b) semilog")
     ax_log.set_yscale("log")
     if not cases:
-        _no_case(axes)
+        no_case(axes)
         return _finish(fig, cases, path)
     case = cases[0]
     col = frame(case, "collapse")
@@ -402,7 +402,7 @@ def fig08_normal(cases: list[dict], path) -> Figure:
     ax = axes[0, 0]
     ax.set(xlabel=r"$\tilde z = z/\delta$", ylabel=r"$\tilde w = w/v_r'$", title="scaled normal velocity")
     if not cases:
-        _no_case(axes)
+        no_case(axes)
         return _finish(fig, cases, path)
     case = cases[0]
     drawn, mappable, colour_label = _colour_by_x(ax, case, frame(case, "collapse"), "wt")
@@ -427,13 +427,13 @@ def fig09_all_cases(cases: list[dict], path) -> Figure:
     ax_log.set_title("(b) semilog")
     ax_log.set_yscale("log")
     if not cases:
-        _no_case(axes)
+        no_case(axes)
         return _finish(fig, cases, path)
     drawn = False
     for i, case in enumerate(cases):
         col = frame(case, "collapse")
         zt, ut = float_column(col, "zt"), float_column(col, "ut")
-        kw = dict(ls="none", ms=2.5, alpha=0.7, label=case_label(case), **_case_style(i, case))
+        kw = dict(ls="none", ms=2.5, alpha=0.7, label=case_label(case), **case_style(i, case))
         drawn |= plot(ax_lin, zt, ut, **kw)
         pos = positive_mask(ut)
         plot(ax_log, zt[pos], ut[pos], **kw)
@@ -463,14 +463,14 @@ def fig10_scaled(cases: list[dict], path) -> Figure:
     ax_d.set(ylabel=r"$\delta$ [mm]", title="(c) flowing-layer thickness")
     ax_dd.set(ylabel=r"$\delta/\bar d$", title="(d) thickness in mean diameters")
     if not cases:
-        _no_case(axes)
+        no_case(axes)
         return _finish(fig, cases, path)
     drawn = dict.fromkeys(("u", "g", "d", "dd"), False)
     for i, case in enumerate(cases):
         px = frame(case, "per_x")
         xl, us, gb, delta, d_bar = (float_column(px, k) for k in ("x_over_L", "u_s", "gamma_bar", "delta", "d_bar"))
         q0 = scalar(case, "q0")
-        kw = dict(ms=4, lw=0.8, label=case_label(case), **_case_style(i, case))
+        kw = dict(ms=4, lw=0.8, label=case_label(case), **case_style(i, case))
         drawn["u"] |= plot(ax_u, xl, us * delta / (2 * q0), **kw)
         drawn["g"] |= plot(ax_g, xl, gb * delta ** 2 / (2 * q0), **kw)
         drawn["d"] |= plot(ax_d, xl, delta * MM, **kw)
@@ -505,7 +505,7 @@ def fig11_qstar(cases: list[dict], path) -> Figure:
         axis.set_major_formatter(StrMethodFormatter("{x:g}"))
         axis.set_minor_formatter(LogFormatter(minor_thresholds=(2, 0.5)))
     if not cases:
-        _no_case(axes)
+        no_case(axes)
         return _finish(fig, cases, path)
     qs, ds = [], []
     for i, case in enumerate(cases):
@@ -514,7 +514,7 @@ def fig11_qstar(cases: list[dict], path) -> Figure:
         ratio = float_column(px, "delta") / float_column(px, "d_bar")
         sel = (xl >= X_OVER_L_MIN) & positive_mask(q_star) & positive_mask(ratio)
         if sel.any():
-            ax.plot(q_star[sel], ratio[sel], ls="none", ms=4, label=case_label(case), **_case_style(i, case))
+            ax.plot(q_star[sel], ratio[sel], ls="none", ms=4, label=case_label(case), **case_style(i, case))
             qs.append(q_star[sel])
             ds.append(ratio[sel])
     fit = _line_fit(np.log(np.concatenate(qs)), np.log(np.concatenate(ds))) if qs else None

@@ -10,7 +10,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from .cost_analysis import column_values, pareto_front, percent
-from .plotting import MARKERS, _colour, _new_figure, _unavailable
+from .plotting import MARKERS, cycle_colour, new_figure, unavailable
 
 #: Tolerance drawn as a dashed line in :func:`plot_error_vs_cost` (fraction).
 GUIDE_TOLERANCE = 0.05
@@ -56,7 +56,7 @@ def _panel(ax, obs: pd.DataFrame, knobs: list[str]) -> bool:
         k = (obs["knob"].to_numpy() == knob) & drawable
         if not k.any():
             continue
-        colour, marker = _colour(i), MARKERS[i % len(MARKERS)]
+        colour, marker = cycle_colour(i), MARKERS[i % len(MARKERS)]
         order = np.flatnonzero(k)[np.argsort(value[k], kind="stable")]
         ax.plot(cost[order], y_draw[order], color=colour, lw=0.6, alpha=0.6, zorder=2)
         for j in order:
@@ -85,7 +85,7 @@ def _panel(ax, obs: pd.DataFrame, knobs: list[str]) -> bool:
 
 
 def _legend_handles(knobs: list[str], noise_sigmas: float) -> list[Line2D]:
-    handles = [Line2D([], [], color=_colour(i), marker=MARKERS[i % len(MARKERS)], lw=0.6, label=k)
+    handles = [Line2D([], [], color=cycle_colour(i), marker=MARKERS[i % len(MARKERS)], lw=0.6, label=k)
                for i, k in enumerate(knobs)]
     handles += [Line2D([], [], color="0.3", marker="o", mfc="none", ls="none",
                        label=f"hollow: within {noise_sigmas:g}σ noise / ref"),
@@ -129,7 +129,7 @@ def plot_error_vs_cost(errors: pd.DataFrame, scene: str, footer: str) -> Figure:
     n = max(len(shown), 1)
     ncols = 1 if n == 1 else 2
     nrows = int(np.ceil(n / ncols))
-    fig, axes = _new_figure(nrows, ncols, (5.0 * ncols, 3.6 * nrows + 0.6))
+    fig, axes = new_figure(nrows, ncols, (5.0 * ncols, 3.6 * nrows + 0.6))
     axes = list(np.ravel(axes))
     for ax in axes[n:]:
         fig.delaxes(ax)
@@ -137,13 +137,13 @@ def plot_error_vs_cost(errors: pd.DataFrame, scene: str, footer: str) -> Figure:
     sigmas = column_values(df, "noise_sigmas")
     noise_sigmas = float(sigmas[np.isfinite(sigmas)][0]) if np.isfinite(sigmas).any() else 2.0
     if not shown:
-        _unavailable(axes[0], f"records of scene {scene!r}")
+        unavailable(axes[0], f"records of scene {scene!r}")
     for ax, obs_name in zip(axes, shown):
         obs = df[df["observable"] == obs_name]
         label = str(obs["label"].iloc[0]) if "label" in obs and pd.notna(obs["label"].iloc[0]) else obs_name
         ax.set_title(label, fontsize=9)
         if not _panel(ax, obs, knobs):
-            _unavailable(ax, "finite error and cost")
+            unavailable(ax, "finite error and cost")
             continue
         ax.set_xlabel("CPU-seconds per run point", fontsize=8)
         ax.set_ylabel("|error| vs finest setting [%]", fontsize=8)

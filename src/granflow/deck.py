@@ -36,8 +36,27 @@ class Param:
     comment: str
 
 
-def _number(value) -> float | int:
-    """Refuse anything that is not a finite number (decks take typed values only)."""
+def number(value) -> float | int:
+    """Refuse anything that is not a finite number (decks take typed values only).
+
+    Every scene's parameters pass each :class:`Param` value through it before the deck is
+    rendered, so that a string, a bool, a NaN or an infinity never reaches a deck.
+
+    Parameters
+    ----------
+    value : int or float
+        A deck parameter, in the unit of its :class:`Param` (any).
+
+    Returns
+    -------
+    int or float
+        ``value`` itself, unchanged.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is a bool, not an int or a float, or not finite.
+    """
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise TypeError(f"deck parameter must be a finite number, got {value!r}")
     return value
@@ -94,7 +113,7 @@ def contact_law_params(model: ContactModel) -> list[Param]:
         what = f"types {p.i}-{p.j}" if p.j is not None else f"type {p.i}-wall"
         out += [Param(f"kn_{p.key}", _sig(p.k_n), f"normal stiffness, {what} (t_c {p.t_c:.4g} at mean m_eff)"),
                 Param(f"kt_{p.key}", _sig(p.k_t), f"tangential stiffness, {what}"),
-                Param(f"en_{p.key}", _number(p.e_n), f"normal restitution, {what}")]
+                Param(f"en_{p.key}", number(p.e_n), f"normal restitution, {what}")]
     return out
 
 
@@ -108,7 +127,7 @@ def contact_law_context(model: ContactModel) -> dict:
 
 def _sig(x: float) -> float:
     """A float rounded to 10 significant digits (deck variables)."""
-    return float(f"{_number(x):.10g}")
+    return float(f"{number(x):.10g}")
 
 
 def record_head(scene_name: str, rung_name: str, case: dict, rung: dict, params: list[Param],

@@ -21,11 +21,31 @@ import pandas as pd
 from .autocorr import MIN_SAMPLES, combined_errors, statistical_inefficiencies
 
 #: Sub-blocks kept per requested block (memory bound, see module docstring).
-_SUBBLOCKS_PER_BLOCK = 16
+SUBBLOCKS_PER_BLOCK = 16
 
 
-class _BlockedSums:
-    """Frame sums kept in at most ``capacity`` contiguous sub-blocks of equal length."""
+class BlockedSums:
+    """Frame sums kept in at most ``capacity`` contiguous sub-blocks of equal length.
+
+    The per-frame sums of every time-averaging analysis (:class:`ConcludedResult`):
+    memory stays bounded by ``capacity`` sub-blocks however many frames are added,
+    as full sub-blocks merge pairwise (see :meth:`add`).
+
+    Parameters
+    ----------
+    capacity : int
+        Sub-blocks kept at most (rounded up to even); the analyses ask for
+        :data:`SUBBLOCKS_PER_BLOCK` times their ``n_blocks``.
+
+    Attributes
+    ----------
+    sums : list of ndarray
+        The sum of each sub-block, in time order, each the shape of one frame's values.
+    counts : list of int
+        Frames in each sub-block.
+    length : int
+        Frames per full sub-block (doubles at every merge).
+    """
 
     def __init__(self, capacity: int):
         self.capacity = capacity + capacity % 2
@@ -204,7 +224,7 @@ def _combined_columns(y: np.ndarray, counts: np.ndarray, block_se: np.ndarray) -
     return combined_errors(se_naive * np.sqrt(g), se_naive, g, n, block_se)
 
 
-def time_average_errors(sums: _BlockedSums, derive: Callable[[np.ndarray], Mapping[str, np.ndarray]],
+def time_average_errors(sums: BlockedSums, derive: Callable[[np.ndarray], Mapping[str, np.ndarray]],
                         names: Sequence[str], n_blocks: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Correlation-aware and block standard errors of derived time-averaged fields.
 
@@ -213,7 +233,7 @@ def time_average_errors(sums: _BlockedSums, derive: Callable[[np.ndarray], Mappi
 
     Parameters
     ----------
-    sums : _BlockedSums
+    sums : BlockedSums
         The per-frame primitive sums.
     derive : callable
         Primitive means (n_nodes, K) -> {name: (n_nodes,) field}.
@@ -242,11 +262,11 @@ class ConcludedResult:
     """The read side of the prepare / accumulate / conclude lifecycle.
 
     Subclasses set ``_result`` in ``conclude()`` and keep their per-frame sums in
-    ``_sums`` (a :class:`_BlockedSums`, or None before ``prepare()``).
+    ``_sums`` (a :class:`BlockedSums`, or None before ``prepare()``).
     """
 
     _result: pd.DataFrame | None = None
-    _sums: "_BlockedSums | None" = None
+    _sums: "BlockedSums | None" = None
 
     @property
     def result(self) -> pd.DataFrame:

@@ -99,14 +99,14 @@ from typing import Iterable, Sequence
 import numpy as np
 import pandas as pd
 
-from .blocks import _SUBBLOCKS_PER_BLOCK, ConcludedResult, _BlockedSums, time_average_errors
+from .blocks import SUBBLOCKS_PER_BLOCK, ConcludedResult, BlockedSums, time_average_errors
 from .contacts import ContactFrame, branch_quadrature
 from .coordinates import XCoordinates
 from .fields_definitions import (ALL_FIELDS, FIELD_PRIMITIVES, FIELDS, PRESSURES, PRIMITIVES,  # noqa: F401 (re-exported)
                                  SPECIES_FIELDS, SPECIES_PRIMITIVES, VECTOR, derive, field_columns, species_columns)
 from .frame import ParticleFrame
 from .kernels import HeavisideBins, channel_bin_edges
-from .overlap import _slab_pairs
+from .overlap import slab_pairs
 
 #: Below this fraction of the particles' kernel weight on the grid, :meth:`FieldAccumulator.conclude`
 #: warns (:class:`SparseGridWarning`): the axis or the range probably misses the material.
@@ -214,7 +214,7 @@ class FieldAccumulator(ConcludedResult):
         self._reset()
 
     def _reset(self) -> None:
-        self._sums: _BlockedSums | None = None
+        self._sums: BlockedSums | None = None
         self._n_particles = 0
         self.coverage: float | None = None
         self._fields: tuple[str, ...] | None = None
@@ -236,7 +236,7 @@ class FieldAccumulator(ConcludedResult):
     def prepare(self) -> None:
         """Start a new average (discarding any previous one)."""
         self._reset()
-        self._sums = _BlockedSums(_SUBBLOCKS_PER_BLOCK * self.n_blocks)
+        self._sums = BlockedSums(SUBBLOCKS_PER_BLOCK * self.n_blocks)
         self._prepared = True
 
     def accumulate(self, frame: ParticleFrame, contacts: ContactFrame | None = None) -> None:
@@ -480,7 +480,7 @@ class FieldAccumulator(ConcludedResult):
     def _exact_volume(self, frame: ParticleFrame, points, groups=None, n_groups: int = 1) -> np.ndarray:
         """Sphere volumes split exactly over the slabs, per slab volume, shape (n_groups, n_slabs)."""
         (edges,) = self.kernel.edges
-        particle, slab, fraction = _slab_pairs(np.asarray(points, float)[:, 0], frame.radius, edges)
+        particle, slab, fraction = slab_pairs(np.asarray(points, float)[:, 0], frame.radius, edges)
         n_slabs = len(edges) - 1
         index = slab if groups is None else groups[particle] * n_slabs + slab
         volumes = self.kernel.node_volumes(self.coordinates, frame.box)  # this frame's, as the bins' weights

@@ -2,7 +2,7 @@
 
 A sphere cut by parallel planes splits its volume exactly among the slabs
 between them (:func:`sphere_slab_fraction`, the spherical-cap formula);
-:func:`_slab_pairs` lists every (sphere, slab) pair with its fraction. Used by
+:func:`slab_pairs` lists every (sphere, slab) pair with its fraction. Used by
 :class:`postproc.fields.FieldAccumulator` with ``volume="exact"`` and by the
 heap's volume-fraction columns.
 """
@@ -11,11 +11,27 @@ from __future__ import annotations
 import numpy as np
 
 
-def _fraction_below(plane, c, r):
+def fraction_below(plane, c, r):
     """Fraction of a sphere (centre ``c``, radius ``r``) below the plane at ``plane``.
 
     With :math:`h` the signed distance of the plane from the centre, the part
     below is a cap of height :math:`r + h` and volume :math:`\\frac{\\pi}{3}(r+h)^2(2r-h)`.
+    A sphere of radius 0 (a point particle) is all below a plane above its centre,
+    else all above.
+
+    Parameters
+    ----------
+    plane : float or array_like
+        Coordinate of the plane along the axis normal to it.
+    c : float or array_like
+        Coordinate of each sphere's centre along the same axis, the unit of ``plane``.
+    r : float or array_like
+        Radius of each sphere, the same unit; ``plane``, ``c`` and ``r`` broadcast together.
+
+    Returns
+    -------
+    ndarray
+        Fractions in :math:`[0, 1]`, the broadcast shape of the arguments.
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.clip((plane - c) / r, -1.0, 1.0)
@@ -48,14 +64,32 @@ def sphere_slab_fraction(c, r, lo, hi):
         Fractions in :math:`[0, 1]`.
     """
     c, r, lo, hi = (np.asarray(a, dtype=float) for a in (c, r, lo, hi))
-    return _fraction_below(hi, c, r) - _fraction_below(lo, c, r)
+    return fraction_below(hi, c, r) - fraction_below(lo, c, r)
 
 
-def _slab_pairs(c: np.ndarray, r: np.ndarray, edges: np.ndarray):
+def slab_pairs(c: np.ndarray, r: np.ndarray, edges: np.ndarray):
     """Every (particle, slab) pair with the exact fraction of the particle in the slab.
 
-    Returns ``particle, slab, fraction``; parts of spheres outside the edges
-    are not assigned to any slab.
+    Parts of spheres outside the edges are not assigned to any slab; pairs with
+    a zero fraction are dropped.
+
+    Parameters
+    ----------
+    c : ndarray, shape (n,)
+        Coordinate of each particle's centre along the axis normal to the slabs.
+    r : ndarray, shape (n,)
+        Radius of each particle, the unit of ``c``.
+    edges : ndarray, shape (n_slabs + 1,)
+        Increasing slab edges along the same axis, the unit of ``c``.
+
+    Returns
+    -------
+    particle : ndarray of int, shape (n_pairs,)
+        Index of the particle of each pair, in particle order.
+    slab : ndarray of int, shape (n_pairs,)
+        Index of the slab of each pair (slab ``k`` lies between ``edges[k]`` and ``edges[k + 1]``).
+    fraction : ndarray of float, shape (n_pairs,)
+        Fraction of the particle's volume in the slab, in :math:`(0, 1]`.
     """
     n = len(edges) - 1
     first = np.clip(np.searchsorted(edges, c - r, side="right") - 1, 0, n - 1)

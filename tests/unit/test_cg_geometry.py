@@ -15,7 +15,7 @@ from postproc.coordinates import CartesianCoordinates, RCoordinates, RZCoordinat
 from postproc.fields import FieldAccumulator, _kernel_width
 from postproc.frame import ParticleFrame
 from postproc.kernels import Gaussian, HeavisideBins, Lucy, RadialKernel
-from postproc.overlap import _slab_pairs, sphere_slab_fraction
+from postproc.overlap import slab_pairs, sphere_slab_fraction
 
 BOX = np.array([[0.0, 10.0], [0.0, 4.0], [0.0, 3.0]])
 
@@ -352,7 +352,7 @@ def test_exact_slab_volume_fraction_of_a_dilute_slab():
                  [frame])
     assert np.max(np.abs(centre["phi"] - expected)) > 0.1 * expected.max()
     assert_allclose(centre["rho"], table["rho"], rtol=0, atol=0)  # only the volume changes
-    p, slab, f = _slab_pairs(pos[:, 0], radius, edges)
+    p, slab, f = slab_pairs(pos[:, 0], radius, edges)
     assert_allclose(np.bincount(p, f), 1.0, rtol=1e-14)
 
 

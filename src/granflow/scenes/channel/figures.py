@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 import granflow.scenes.channel.analysis as ch
-from granflow.plotting import MARKERS, _colour, _new_figure, _positive, _unavailable, finish
+from granflow.plotting import MARKERS, cycle_colour, new_figure, positive_mask, unavailable, finish
 
 #: Zone colours of the paper's figure 11 (plug is not sheared and not shown there).
 ZONE_COLOURS = {"wall": "red", "loose": "black", "dense": "saddlebrown", "plug": "0.6"}
@@ -59,14 +59,14 @@ def fig_velocity_profiles(cases: list[dict], path) -> Figure:
     :math:`(u-u_{slip})/(u_{max}-u_{slip})` against :math:`x/\\delta_{0.95}` with
     eq. (3.1) (:math:`a = 3`, dashed red) and each case's fitted exponent (dotted).
     """
-    fig, axes = _new_figure(1, 2, (11, 4.6))
+    fig, axes = new_figure(1, 2, (11, 4.6))
     ax_a, ax_b = axes[0]
     xi_max = 0.0
     for i, case in enumerate(cases):
         a = _analyse(case)
         x = a.folded["x"].to_numpy()
         u, u_se = ch.downward_speed(a.folded)
-        kw = dict(color=_colour(i), marker=MARKERS[i % len(MARKERS)], ms=3.5, lw=0.8, capsize=1.5)
+        kw = dict(color=cycle_colour(i), marker=MARKERS[i % len(MARKERS)], ms=3.5, lw=0.8, capsize=1.5)
         ax_a.errorbar(x, u, yerr=np.nan_to_num(u_se), label=case["label"], **kw)
         sc = a.scales
         if not (np.isfinite(sc.delta_095) and sc.u_max > sc.u_slip):
@@ -77,7 +77,7 @@ def fig_velocity_profiles(cases: list[dict], path) -> Figure:
                       ls="none", label=case["label"], **kw)
         if np.isfinite(a.fit.a):
             grid = np.linspace(0, xi.max(), 200)
-            ax_b.plot(grid, ch.universal_profile(grid, a.fit.a), color=_colour(i), ls=":", lw=1,
+            ax_b.plot(grid, ch.universal_profile(grid, a.fit.a), color=cycle_colour(i), ls=":", lw=1,
                       label=f"fit a = {a.fit.a:.2f} ± {a.fit.a_se:.2f}")
     grid = np.linspace(0, max(xi_max, 1.0), 300)
     ax_b.plot(grid, ch.universal_profile(grid), "r--", lw=1.5, label="eq. (3.1), a = 3")
@@ -96,7 +96,7 @@ def fig_ratio_vs_phi(cases: list[dict], path) -> Figure:
     Error bars are the ratio's standard error propagated from the ``u_y_se``
     columns (``scalars["ratio_se"]``).
     """
-    fig, axes = _new_figure(1, 1, (6, 4.6))
+    fig, axes = new_figure(1, 1, (6, 4.6))
     ax = axes[0, 0]
     widths = sorted({float(c["W"]) for c in cases})
     for i, W in enumerate(widths):
@@ -104,7 +104,7 @@ def fig_ratio_vs_phi(cases: list[dict], path) -> Figure:
         phi = [c["phi_mean"] for c in rows]
         ratio = [c["scalars"].get("ratio", np.nan) for c in rows]
         err = [c["scalars"].get("ratio_se", np.nan) for c in rows]
-        ax.errorbar(phi, ratio, yerr=np.nan_to_num(np.asarray(err, dtype=float)), color=_colour(i),
+        ax.errorbar(phi, ratio, yerr=np.nan_to_num(np.asarray(err, dtype=float)), color=cycle_colour(i),
                     marker=MARKERS[i % len(MARKERS)], lw=0.8, capsize=2, label=f"W = {W:g} $d_p$")
     ax.set(xlabel=r"$\bar\phi$", ylabel=r"$u_{max}/u_{slip}$", title=r"ratio of centre and slip velocities")
     ax.legend(fontsize=8)
@@ -117,7 +117,7 @@ def fig_stress_profiles(cases: list[dict], path) -> Figure:
     Against distance from the wall, with zone boundaries: black plug/dense,
     blue dense/loose, red loose/wall (line style per case).
     """
-    fig, axes = _new_figure(1, 1, (7.5, 4.8))
+    fig, axes = new_figure(1, 1, (7.5, 4.8))
     ax = axes[0, 0]
     ax2 = ax.twinx()
     drawn = False
@@ -134,7 +134,7 @@ def fig_stress_profiles(cases: list[dict], path) -> Figure:
                 drawn = True
         _zone_lines(ax, a.zones, ls)
     if not drawn:
-        _unavailable(ax, "stress")
+        unavailable(ax, "stress")
     ax.set(xlabel=r"$x/d_p$ (from the wall)", ylabel=r"$\sigma_{xx}$  [$\rho_p g d_p$]")
     ax2.set_ylabel(r"$\sigma_{xy}$  [$\rho_p g d_p$]", color="saddlebrown")
     handles = [Line2D([], [], color="black", marker=MARKERS[0], label=r"$\sigma_{xx}$ (left)"),
@@ -158,28 +158,28 @@ def fig_phi_shear_temperature(cases: list[dict], path) -> Figure:
     :math:`\\sigma_{xy}\\,du/dx = -\\sigma_{xy}\\,du_y/dx`; the dissipation rate
     :math:`D` of the paper is not measured by this pipeline.
     """
-    fig, axes = _new_figure(2, 2, (11, 8))
+    fig, axes = new_figure(2, 2, (11, 8))
     (ax_phi, ax_gd), (ax_t, ax_p) = axes
     have = dict(phi=False, T=False, P=False)
     for i, case in enumerate(cases):
         a = _analyse(case)
         f, r = a.folded, a.rheo
         x = f["x"].to_numpy()
-        kw = dict(color=_colour(i), marker=MARKERS[i % len(MARKERS)], ms=3, lw=0.8, capsize=1.5,
+        kw = dict(color=cycle_colour(i), marker=MARKERS[i % len(MARKERS)], ms=3, lw=0.8, capsize=1.5,
                   label=case["label"])
         if "phi" in f:
             ax_phi.errorbar(x, f["phi"], yerr=_se(f, "phi"), **kw)
             have["phi"] = True
         gd = np.abs(r["gamma_dot"].to_numpy())
-        ok = _positive(gd)
+        ok = positive_mask(gd)
         ax_gd.errorbar(x[ok], gd[ok], yerr=np.nan_to_num(r["gamma_dot_se"].to_numpy()[ok]), **kw)
         if "T" in f:
             t = f["T"].to_numpy()
-            ok = _positive(t)
+            ok = positive_mask(t)
             ax_t.errorbar(x[ok], t[ok], yerr=_se(f, "T")[ok], **kw)
             have["T"] = True
         p = r["shear_production"].to_numpy()
-        ok = _positive(p)
+        ok = positive_mask(p)
         if ok.any():
             ax_p.errorbar(x[ok], p[ok], yerr=np.nan_to_num(r["shear_production_se"].to_numpy()[ok]), **kw)
             have["P"] = True
@@ -192,7 +192,7 @@ def fig_phi_shear_temperature(cases: list[dict], path) -> Figure:
     for key, ax, what in (("phi", ax_phi, "φ"), ("T", ax_t, "granular temperature"),
                           ("P", ax_p, "shear stress")):
         if not have[key]:
-            _unavailable(ax, what)
+            unavailable(ax, what)
     ax_phi.set(ylabel=r"$\phi$", title=r"(a) volume fraction ($\phi_{ad}$ = 0.587, 0.63 dotted)")
     ax_gd.set(ylabel=r"$|du/dx|$  [$\sqrt{g/d_p}$]", title="(b) shear rate")
     ax_t.set(ylabel=r"$T$  [$g d_p$]", title="(c) granular temperature")
@@ -212,7 +212,7 @@ def fig_rheology(cases: list[dict], path, params: ch.MuIParameters = ch.JOP2015)
     eqs. (B3) and (B4) with the model constants of Jop (2015); the black dotted
     line in (b) is a slope-1 guide.
     """
-    fig, axes = _new_figure(1, 2, (11, 4.6))
+    fig, axes = new_figure(1, 2, (11, 4.6))
     ax_mu, ax_phi = axes[0]
     all_I = []
     phi_pts = []
@@ -237,7 +237,7 @@ def fig_rheology(cases: list[dict], path, params: ch.MuIParameters = ch.JOP2015)
         grid = np.logspace(np.log10(I_all.min()) - 0.3, np.log10(I_all.max()) + 0.3, 200)
     else:
         grid = np.logspace(-5, 0, 200)
-        _unavailable(ax_mu, "μ(I) (needs stress and shear rate)")
+        unavailable(ax_mu, "μ(I) (needs stress and shear rate)")
     ax_mu.plot(grid, params.mu(grid), ":", color="blue", lw=1.5, label="(B3), Jop 2015 constants")
     ax_phi.plot(grid, PHI_RCP - params.phi(grid), ":", color="blue", lw=1.5, label="(B4), Jop 2015 constants")
     pts = [p for p in phi_pts if len(p[0])]

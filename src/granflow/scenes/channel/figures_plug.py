@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from granflow.plotting import MARKERS, _colour, _new_figure, finish
+from granflow.plotting import MARKERS, cycle_colour, new_figure, finish
 from postproc.structure import Q6_FCC
 
 
@@ -20,12 +20,12 @@ def fig_steadiness_plug(cases: list[dict], path) -> Figure:
     (b) the plug's root-mean-square non-affine displacement since the window's start, :math:`d_p`;
     (c) :math:`q_6` of the plug (filled) and of the shear zone (open), fcc's 0.5745 dotted, and the
     crystal-like fraction of the plug (right axis)."""
-    fig, axes = _new_figure(1, 3, (13, 4.2))
+    fig, axes = new_figure(1, 3, (13, 4.2))
     a, b, c = axes[0]
     c2 = c.twinx()
     a.axhspan(1.37, 1.40, color="0.85", label="paper 1.37–1.40")
     for i, case in enumerate(cases):
-        colour, marker = _colour(i), MARKERS[i % len(MARKERS)]
+        colour, marker = cycle_colour(i), MARKERS[i % len(MARKERS)]
         blocks = case.get("blocks", pd.DataFrame())
         if not blocks.empty:
             a.errorbar(blocks["t_mid"], blocks["ratio"], yerr=np.nan_to_num(blocks["ratio_se"].to_numpy(float)),

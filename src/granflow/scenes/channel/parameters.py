@@ -16,7 +16,7 @@ from granflow.deck import (
     STRESS_COLUMNS,
     Param,
     StepClock,
-    _number,
+    number,
     rain_lattice,
     species_counts,
     time_step,
@@ -80,7 +80,7 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         Param("W", W, "channel width (walls at x = 0 and x = W), d_p"),
         Param("B", B, "spanwise periodic depth (z), d_p"),
         Param("H_nominal", H, "nominal periodic height; the deck sets H = V_particles/(phi_mean W B)"),
-        Param("phi_mean", _number(case["phi_mean"]), "mean volume fraction phi-bar"),
+        Param("phi_mean", number(case["phi_mean"]), "mean volume fraction phi-bar"),
         Param("n_particles", n_particles, "particles inserted: phi_mean W B H_nominal / <pi d^3/6>"),
         Param("H_per", round(H_per, 9), "periodic height V_particles/(phi_mean W B), d_p"),
         Param("fill_height", round(fill_height, 6), "box height while the gas rains, d_p"),
@@ -116,7 +116,7 @@ def channel_parameters(scene: dict, rung_name: str, case: dict | None = None) ->
         Param("n_dump", thermo_multiple(rung["dump_interval"]), "steps between dumped frames"),
     ]
     for prm in params:
-        _number(prm.value)
+        number(prm.value)
 
     n_types = len(diameters)
     species_split = [{"to_type": i + 1, "count": counts[i]} for i in range(1, n_types)]

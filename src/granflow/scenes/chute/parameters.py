@@ -16,7 +16,7 @@ import math
 
 from granflow.config import ConfigError, check_rung
 from granflow.contact import Contact, build_contact_model, contact_time, sphere_mass
-from granflow.deck import (STRESS_COLUMNS, Param, StepClock, _number, contact_law_context, contact_law_params,
+from granflow.deck import (STRESS_COLUMNS, Param, StepClock, number, contact_law_context, contact_law_params,
                            rain_lattice, record_head, time_step)
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
@@ -82,7 +82,7 @@ def chute_parameters(scene: dict, rung_name: str, case: dict | None = None) -> t
 
     t_fall = math.sqrt(2.0 * fill_height)  # free-fall time of the top of the gas
     params = [
-        Param("theta_deg", _number(theta), "inclination theta, degrees (gravity tilted towards +x)"),
+        Param("theta_deg", number(theta), "inclination theta, degrees (gravity tilted towards +x)"),
         Param("Lx", Lx, "periodic length along the flow (x), d"),
         Param("Ly", Ly, "periodic width (y), d"),
         Param("H_nominal", H, "nominal bed depth above the base, d (the analysis measures it)"),
@@ -120,7 +120,7 @@ def chute_parameters(scene: dict, rung_name: str, case: dict | None = None) -> t
         Param("n_dump", thermo_multiple(rung["dump_interval"]), "steps between dumped frames"),
     ]
     for prm in params:
-        _number(prm.value)
+        number(prm.value)
 
     columns = list(eff["dump_columns"])
     if eff["per_atom_stress"]:

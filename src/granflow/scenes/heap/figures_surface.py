@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from granflow.plotting import _finish_cases as _finish
-from granflow.plotting import _new_figure, _scalar, _unavailable
+from granflow.plotting import finish_cases as _finish
+from granflow.plotting import new_figure, scalar, unavailable
 
-from .figure_style import _case_style, _no_case
+from .figure_style import case_style, no_case
 
 
 def fig04b_surface_shape(cases: list[dict], path) -> Figure:
@@ -22,17 +22,17 @@ def fig04b_surface_shape(cases: list[dict], path) -> Figure:
     """
     from .analysis import ALPHA_PLANAR_MIDDLE, fit_surface, surface_grid
 
-    fig, axes = _new_figure(1, 2, (12, 4.6))
+    fig, axes = new_figure(1, 2, (12, 4.6))
     ax_r, ax_s = axes[0]
     ax_r.set(xlabel=r"$x_{lab}$ [m]", ylabel=r"$\bar z_s - $ plane [mm]", title="(a) surface minus the planar middle's plane")
     ax_s.set(xlabel=r"$x_{lab}$ [m]", ylabel="local slope [°]", title="(b) local slope of the surface")
     if not cases:
-        _no_case([ax_r, ax_s])
+        no_case([ax_r, ax_s])
         return _finish(fig, cases, path)
     drawn = False
     for i, case in enumerate(cases):
         surf = case.get("surface")
-        x_feed, W = _scalar(case, "x_feed"), _scalar(case, "W")
+        x_feed, W = scalar(case, "x_feed"), scalar(case, "W")
         if surf is None or surf.empty or not (np.isfinite(x_feed) and np.isfinite(W)):
             continue
         grid = surface_grid(surf)
@@ -51,7 +51,7 @@ def fig04b_surface_shape(cases: list[dict], path) -> Figure:
         mean = np.nanmean(Z, axis=0)
         t_mean = float(np.mean(t))
         plane = mid.z0 - x * np.tan(np.radians(mid.alpha_deg)) + mid.v_r * t_mean
-        style = _case_style(i, case)
+        style = case_style(i, case)
         ax_r.plot(x, 1e3 * (mean - plane), lw=1, ms=3, label=case["label"], **style)
         slope = -np.degrees(np.arctan(np.gradient(mean, x)))
         ax_s.plot(x, slope, lw=1, ms=3, label=f"{case['label']}: α = {mid.alpha_deg:.2f}° (middle), "
@@ -70,5 +70,5 @@ def fig04b_surface_shape(cases: list[dict], path) -> Figure:
         ax_s.legend(fontsize=7, loc="lower center")
     else:
         for ax in (ax_r, ax_s):
-            _unavailable(ax, "the free surface")
+            unavailable(ax, "the free surface")
     return _finish(fig, cases, path)

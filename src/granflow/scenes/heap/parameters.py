@@ -22,7 +22,7 @@ import math
 from granflow.config import check_rung
 from granflow.contact import (ContactModel, TypePair, contact_law, contact_model_for_time, per_pair_model,
                               restitution_contacts, sphere_mass)
-from granflow.deck import (Param, StepClock, _number, contact_law_context, contact_law_params, record_head,
+from granflow.deck import (Param, StepClock, number, contact_law_context, contact_law_params, record_head,
                            shared_si_params, time_step)
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
@@ -275,7 +275,7 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("feed_yhi", round(reg["y_hi"], 9), "feed region y upper bound, m"),
         Param("feed_zlo", round(reg["z_lo"], 9), "feed region bottom: z_base0 + feed_drop, m"),
         Param("feed_zhi", round(reg["z_hi"], 9), "feed region top, m"),
-        Param("feed_rate", _number(case["feed_rate"]), "requested mass feed rate, kg/s"),
+        Param("feed_rate", number(case["feed_rate"]), "requested mass feed rate, kg/s"),
         Param("feed_rate_planned", round(plan["rate_planned"], 9), "rate the pour delivers: sum nper <m> / (nfreq dt), kg/s"),
         Param("feed_attempts", proto["feed_attempts"], "insertion attempts per particle"),
         Param("feed_speed", rung["feed_speed"], "downward speed of the poured particles, m/s"),
@@ -299,7 +299,7 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("n_balance", 1000, "steps between load-balancing shifts along x"),
     ]
     for prm in params:
-        _number(prm.value)
+        number(prm.value)
     pours = [{"type": p["type"], "nper": p["nper"], "vol": round(p["vol"], 12),
               "d_lo": round(p["d_lo"], 12), "d_hi": round(p["d_hi"], 12),
               # enough particles for one segment: insertions per segment (+1) x nper

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from granflow.plotting import _pm
+from granflow.plotting import pm
 from granflow.registry import finite
 from granflow.validation import Check, ValidationResult, concat_profiles, read_case, read_table, systematic
 from granflow.validation import headline_errors as validation_errors
@@ -222,7 +222,7 @@ def rise_check(case: HeapCase) -> Check:
     rate, rate_se = case.get("feed_rate_measured"), case.get("feed_rate_measured_se")
     ratio = v_r / v_pred
     se = abs(ratio) * math.hypot(v_se / v_r, rate_se / rate if math.isfinite(rate_se) else 0.0)
-    note = (f"v_r = {_pm(v_r * 1e3, v_se * 1e3, '.4g', 'mm/s')} from the fitted plane (least-squares error × √g, "
+    note = (f"v_r = {pm(v_r * 1e3, v_se * 1e3, '.4g', 'mm/s')} from the fitted plane (least-squares error × √g, "
             f"g = {g:.3g} frames for correlated residuals); predicted {v_pred * 1e3:.4g} mm/s from the delivered "
             f"ṁ = {rate * 1e3:.4g} g/s, φ_bed = {case.get('phi_bed'):.3f} (static bed 1.5δ to 1.5δ + 20 d̄ below the "
             f"surface), T = {geometry.T * 1e3:g} mm, W = {geometry.W:g} m; φ_bed's own error is not included")
@@ -257,7 +257,7 @@ def delta_check(case: HeapCase) -> Check:
     rel = case.errors.get("delta_over_d", np.nan) / global_ratio
     note = (f"mean over {n} usable bins with 0.2 ≤ x/L ≤ 0.9 of δ (0.1 u_s cutoff) over the number-mean diameter "
             f"in the layer (the paper's local d̄, §3.3); over the mixture's mean d̄ = {case.get('d_bar') * 1e3:.3g} mm "
-            f"it is {_pm(global_ratio, case.errors.get('delta_over_d', np.nan))}, whose relative error is used"
+            f"it is {pm(global_ratio, case.errors.get('delta_over_d', np.nan))}, whose relative error is used"
             + (f" ({case.error_note})" if case.error_note else ""))
     if not case.is_case(*PAPER_DELTA_CASE):
         note += ("; the paper states 6-7 d for 1.5 mm at 33 g/s only; its Fig. 10(d) shows δ/d̄ of every case "
@@ -430,7 +430,7 @@ def q_star_check(cases: list[HeapCase]) -> Check:
         sel = usable & (px["x_over_L"].to_numpy(float) >= hp.Q_STAR_MIN_X_OVER_L)
         qs.append(px["q_star"].to_numpy(float)[sel])
         ds.append((px["delta"] / px["d_bar"]).to_numpy(float)[sel])
-        per_case.append(f"{c.name}: {_pm(c.get('q_star_exponent'), c.get('q_star_exponent_se'), '.2f')}")
+        per_case.append(f"{c.name}: {pm(c.get('q_star_exponent'), c.get('q_star_exponent_se'), '.2f')}")
     if not qs:
         return Check(q, paper, source, float("nan"), paper_range=PAPER_Q_STAR_EXPONENT, note="no measured case")
     fit = hp.fit_power_law(np.concatenate(qs), np.concatenate(ds))

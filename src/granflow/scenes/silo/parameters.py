@@ -21,7 +21,7 @@ import numpy as np
 from granflow.config import check_rung
 from granflow.contact import (Contact, ContactModel, TypePair, contact_block_model, contact_law, contact_time,
                               damping_for_restitution, per_pair_model, restitution_contacts)
-from granflow.deck import Param, StepClock, _number, contact_law_context, contact_law_params, record_head, shared_si_params
+from granflow.deck import Param, StepClock, number, contact_law_context, contact_law_params, record_head, shared_si_params
 from granflow.preflight import PreflightError, check_time_step, neighbor_settings
 
 
@@ -320,7 +320,7 @@ def silo_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         params.append(Param("z_plate", round(-2 * rim["radius"], 12),
                             "underside of the floor plate (as thick as the rim's spheres), m"))
     for prm in params:
-        _number(prm.value)
+        number(prm.value)
     n_seg = max(1, math.ceil(rung["t_discharge"] / t_segment - 1e-9))
     context = {
         "scene": "silo",

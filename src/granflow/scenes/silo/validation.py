@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from granflow.plotting import _pm
+from granflow.plotting import pm
 from granflow.registry import finite
 from granflow.validation import Check, ValidationResult, concat_profiles, read_case, read_table, systematic
 from granflow.validation import headline_errors as validation_errors
@@ -207,7 +207,7 @@ def velocity_exponent_checks(cases: list[SiloCase]) -> list[Check]:
                         "empty annulus gives at R of 3-6 large diameters")
             else:
                 q = "v_c = A (R − R0)^b: exponent b (orifice plane, no kernel)"
-                note = (f"weighted fit over {head['n']} orifices: R0 = {_pm(head['x0'], head['x0_se'], '.3g')} r_b, "
+                note = (f"weighted fit over {head['n']} orifices: R0 = {pm(head['x0'], head['x0_se'], '.3g')} r_b, "
                         f"χ²/ν = {head['chi2_dof']:.2g} (errors scaled by it when > 1); the paper fits no offset, "
                         "its √R is over three orifices of 6.75-12 r_b. A fit range of 4 orifices leaves one degree "
                         "of freedom")
@@ -321,8 +321,8 @@ def collapse_check(cases: list[SiloCase]) -> Check:
         R0 = -lin["intercept"] / lin["slope"] if lin["slope"] else float("nan")
         h = ok[0].record["cg"]["node_spacing"]
         note = (f"weighted fit of ln h_c against ln R over {len(ok)} orifices (w = 2 r_b, nodes {h:g} r_b apart); weighted "
-                f"mean h_c/R = {_pm(mean, mean_se)}, spread (std/mean) {np.std(y, ddof=1) / np.mean(y):.1%}; as a line "
-                f"h_c = β'(R − R0): β' = {_pm(lin['slope'], lin['slope_se'])}, R0 = {R0:.2g} r_b (0 when the profiles "
+                f"mean h_c/R = {pm(mean, mean_se)}, spread (std/mean) {np.std(y, ddof=1) / np.mean(y):.1%}; as a line "
+                f"h_c = β'(R − R0): β' = {pm(lin['slope'], lin['slope_se'])}, R0 = {R0:.2g} r_b (0 when the profiles "
                 "collapse); the paper gives no value of h_c/R, only the collapse. p^k is from time-averaged fields "
                 "(the spread of the mean flow inside the kernel counts as kinetic pressure; the paper's eq. 7 takes "
                 "fluctuations about the instantaneous local mean): not varied here; kernel widths below the node "
@@ -360,7 +360,7 @@ def collapse_eq7_check(cases: list[SiloCase]) -> Check:
     node_se = _slope_error(R, y, node)
     text += ("; " if text else "") + f"node resolution (a third of a node, uniform): ±{node_se:.3g}"
     syst = math.hypot(syst if math.isfinite(syst) else 0.0, node_se)
-    per = ", ".join(f"{c.R_over_rb:g}: {_pm(c.get('h_c_over_R_eq7'), c.get('h_c_over_R_eq7_se'), '.2f')}" for c in ok)
+    per = ", ".join(f"{c.R_over_rb:g}: {pm(c.get('h_c_over_R_eq7'), c.get('h_c_over_R_eq7_se'), '.2f')}" for c in ok)
     avg = ", ".join(f"{c.get('h_c_over_R_fine'):.2f}" for c in ok)
     ratio = ", ".join(f"{c.get('pk_max_fine') / c.get('pk_max_eq7'):.1f}" for c in ok)
     note = (f"weighted fit of ln h_c against ln R over {len(ok)} orifices; h_c/R per R/r_b: {per} (the refined "
@@ -384,7 +384,7 @@ def surface_rate_check(case: SiloCase) -> Check:
     r = sl.surface_rate_ratio(case.flow, case.get("W_f"), W_f_se, case.get("t_start"), case.get("t_end"))
     note = (f"W_r = ρ_p φ_bulk π R_c² × fall speed of the highest particle, mean of {r['n']} windows of "
             f"{case.get('window'):g} s in the steady window (error: {r['W_r_se_method']}) = "
-            f"{_pm(r['W_r'], r['W_r_se'], '.4g')} kg/s; W_f = {_pm(case.get('W_f'), W_f_se, '.4g')} kg/s; "
+            f"{pm(r['W_r'], r['W_r_se'], '.4g')} kg/s; W_f = {pm(case.get('W_f'), W_f_se, '.4g')} kg/s; "
             "φ_bulk measured at half the fill height (the paper: a slab at the top surface)")
     return Check(q, paper, source, r["ratio"], r["ratio_se"], case=case.name, paper_range=(1.0, 1.0), note=note)
 
@@ -408,7 +408,7 @@ def transition_check(case: SiloCase) -> Check:
     q, paper, source = "h_c/R (kinetic-pressure maximum on the axis)", "collapses on z/R (no value stated)", "Fig. 8"
     if not case.steady:
         return _not_measured(q, paper, source, case)
-    scan = ", ".join(f"{_pm(case.get(k), case.get(k + '_se'), '.2f')} at w = {k.rsplit('_w', 1)[1]} r_b"
+    scan = ", ".join(f"{pm(case.get(k), case.get(k + '_se'), '.2f')} at w = {k.rsplit('_w', 1)[1]} r_b"
                      for k in sorted(case.scalars) if k.startswith("h_c_over_R_w") and not k.endswith("_se"))
     spacing = case.record["cg"]["node_spacing"] / case.R_over_rb
     widths = _resolved_widths(case, {k.rsplit("_w", 1)[1] for k in case.scalars
@@ -465,7 +465,7 @@ def contact_check(case: SiloCase) -> Check:
         return Check(q, paper, source, float("nan"), case=case.name, note="no contact-stress table")
     f = sl.contact_fall(case.contact, case.get("R"), CONTACT_SPAN)
     note = (f"Spearman ρ over {f['n']} axis nodes (1: a monotonic fall towards the outlet; w = r_b/2 as the "
-            f"paper); p^c(z = 0)/p^c(z = {CONTACT_SPAN:g}R) = {_pm(f['ratio'], f['ratio_se'], '.2g')} (0 when it "
+            f"paper); p^c(z = 0)/p^c(z = {CONTACT_SPAN:g}R) = {pm(f['ratio'], f['ratio_se'], '.2g')} (0 when it "
             "vanishes at the outlet; the kernel reaches 2 r_b above the orifice plane)")
     return Check(q, paper, source, f["rho_s"], case=case.name, note=note)
 

@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 
 from .kinematics import MovingFrame
-from .layer import _column
-from .surface import HeapGeometry, SurfaceFit, _centre_bins, uniform_edges
+from .layer import column
+from .surface import HeapGeometry, SurfaceFit, centre_bins, uniform_edges
 
 
 def deposit_concentration(position, radius, type, fit: SurfaceFit, geometry: HeapGeometry,
@@ -55,7 +55,7 @@ def deposit_concentration(position, radius, type, fit: SurfaceFit, geometry: Hea
     if y_range is not None:
         inside &= (position[:, 1] >= y_range[0]) & (position[:, 1] <= y_range[1])
     edges = uniform_edges(0.0, geometry.W, dx)
-    col = _centre_bins(position[:, 0], edges)
+    col = centre_bins(position[:, 0], edges)
     inside &= col >= 0
     vol = 4.0 / 3.0 * np.pi * radius**3
     n_cols = len(edges) - 1
@@ -147,7 +147,7 @@ def deposit_contrast(deposit: pd.DataFrame, x_lo: float, x_hi: float, weight: st
     dict
         ``contrast, upstream, downstream, n`` (particles); NaN without particles in a half.
     """
-    x, c, n, w = (_column(deposit, k) for k in ("x_lab", "c_s", "n", weight))
+    x, c, n, w = (column(deposit, k) for k in ("x_lab", "c_s", "n", weight))
     ok = (np.isfinite(x) & np.isfinite(c) & np.isfinite(n) & (n > 0) & np.isfinite(w) & (w > 0)
           & (x >= x_lo) & (x <= x_hi))
     mid = 0.5 * (x_lo + x_hi)

@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from postproc.blocks import _SUBBLOCKS_PER_BLOCK, ConcludedResult, _BlockedSums, time_average_errors
+from postproc.blocks import SUBBLOCKS_PER_BLOCK, ConcludedResult, BlockedSums, time_average_errors
 from postproc.frame import ParticleFrame
 
-from .surface import HeapGeometry, SurfaceFit, _volume_pairs
+from .surface import HeapGeometry, SurfaceFit, volume_pairs
 
 
 # --------------------------------------------------------------------------- moving frame
@@ -170,7 +170,7 @@ class KinematicsAccumulator(ConcludedResult):
         self.n_blocks = int(n_blocks)
         self.shape = (len(self.x_edges) - 1, len(self.z_edges) - 1)
         self.bin_volume = (np.outer(np.diff(self.x_edges), np.diff(self.z_edges)) * self.T).ravel()
-        self._sums: _BlockedSums | None = None
+        self._sums: BlockedSums | None = None
         self._result: pd.DataFrame | None = None
 
     # columns of the per-frame sums
@@ -178,7 +178,7 @@ class KinematicsAccumulator(ConcludedResult):
 
     def prepare(self) -> None:
         """Start a new average (discarding any previous one)."""
-        self._sums = _BlockedSums(_SUBBLOCKS_PER_BLOCK * self.n_blocks)
+        self._sums = BlockedSums(SUBBLOCKS_PER_BLOCK * self.n_blocks)
         self._result = None
 
     def accumulate(self, x, z, u, w, radius, type=None, *, weight_axis: str | None = "z") -> None:
@@ -206,11 +206,11 @@ class KinematicsAccumulator(ConcludedResult):
         if weight_axis not in ("z", "x", None):
             raise ValueError(f"weight_axis must be 'z', 'x' or None, got {weight_axis!r}")
         split = {"z": "b", "x": "a", None: None}[weight_axis]
-        p, flat, vol = _volume_pairs(x, z, radius, self.x_edges, self.z_edges, split)
+        p, flat, vol = volume_pairs(x, z, radius, self.x_edges, self.z_edges, split)
         n_bins = self.bin_volume.size
         per_pair = [vol, vol * u[p], vol * w[p], vol * u[p] ** 2, vol * w[p] ** 2]
         sums = [np.bincount(flat, weights=q, minlength=n_bins) for q in per_pair]
-        cp, cflat, _ = _volume_pairs(x, z, radius, self.x_edges, self.z_edges, None)
+        cp, cflat, _ = volume_pairs(x, z, radius, self.x_edges, self.z_edges, None)
         sums.append(np.bincount(cflat, minlength=n_bins).astype(float))
         sums.append(np.bincount(cflat, weights=2.0 * radius[cp], minlength=n_bins))
         for k in range(1, self.n_types + 1):
@@ -275,8 +275,23 @@ def accumulate_frame(accumulator: KinematicsAccumulator, frame: ParticleFrame, m
 
 
 # --------------------------------------------------------------------------- one profile
-def _profile(z, u, z_max: float | None = None):
-    """Finite points of a profile sorted by z, optionally only :math:`z \\le z_{max}`."""
+def finite_profile(z, u, z_max: float | None = None):
+    """Finite points of a profile sorted by z, optionally only :math:`z \\le z_{max}`.
+
+    Parameters
+    ----------
+    z : array_like, shape (n,)
+        Depth of each point, m (relative to the free surface: :math:`z = 0` on it, negative below).
+    u : array_like, shape (n,)
+        The profile's value at each point (e.g. a velocity, m/s).
+    z_max : float, optional
+        Keep only points at or below this depth, m; None keeps all.
+
+    Returns
+    -------
+    z, u : ndarray of float, shape (m,)
+        The points where both are finite (and ``z <= z_max``), in increasing z (a stable sort).
+    """
     z, u = np.asarray(z, dtype=float).ravel(), np.asarray(u, dtype=float).ravel()
     ok = np.isfinite(z) & np.isfinite(u)
     if z_max is not None:
@@ -285,8 +300,20 @@ def _profile(z, u, z_max: float | None = None):
     return z[ok][order], u[ok][order]
 
 
-def _surface_tolerance(z) -> float:
-    """Round-off allowance for 'z <= 0' on bin centres."""
+def surface_tolerance(z) -> float:
+    """Round-off allowance for 'z <= 0' on bin centres.
+
+    Parameters
+    ----------
+    z : array_like
+        Bin centres' depths relative to the free surface, m (any shape).
+
+    Returns
+    -------
+    float
+        :math:`10^{-9}` times the largest finite :math:`|z|`, m (:math:`10^{-9}` when none is finite):
+        a centre at or below this counts as at or below the surface.
+    """
     z = np.asarray(z, dtype=float)
     scale = np.nanmax(np.abs(z)) if np.isfinite(z).any() else 1.0
     return 1e-9 * scale
@@ -299,7 +326,7 @@ def surface_velocity(z, u) -> float:
     above the surface, extrapolated from the two highest points provided the
     highest is within one spacing of the surface; NaN otherwise.
     """
-    z, u = _profile(z, u)
+    z, u = finite_profile(z, u)
     if len(z) == 0:
         return float("nan")
     if z[0] <= 0.0 <= z[-1]:

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import curve_fit
 
-from .kinematics import MovingFrame, _profile, _surface_tolerance, surface_velocity
+from .kinematics import MovingFrame, finite_profile, surface_tolerance, surface_velocity
 from .surface import (
     PHI_C,
     CUTOFF_FRACTION,
@@ -22,7 +22,7 @@ from .surface import (
     TAIL_RANGE,
     HeapGeometry,
     SurfaceFit,
-    _line_fit,
+    line_fit,
     free_surface,
 )
 
@@ -48,12 +48,12 @@ def delta_exponential(z, u, u_s) -> ExponentialDepth:
         ``(delta, z0)``, m; NaN with fewer than three points or a failed fit.
     """
     nan = ExponentialDepth(float("nan"), float("nan"))
-    z, u = _profile(z, u, _surface_tolerance(z))
+    z, u = finite_profile(z, u, surface_tolerance(z))
     keep = u > EXPONENTIAL_FIT_MIN_FRACTION * u_s
     z, u = z[keep], u[keep]
     if not (np.isfinite(u_s) and u_s > 0) or len(z) < 3:
         return nan
-    a, b, _, _ = _line_fit(z, np.log(u))
+    a, b, _, _ = line_fit(z, np.log(u))
     if not (np.isfinite(b) and b > 0):
         return nan
     try:
@@ -76,13 +76,13 @@ def delta_linear(z, u, u_s) -> float:
     :math:`\\delta = -z_{bottom}`, m. NaN with fewer than two points or a
     non-positive slope.
     """
-    z, u = _profile(z, u, _surface_tolerance(z))
+    z, u = finite_profile(z, u, surface_tolerance(z))
     if not (np.isfinite(u_s) and u_s > 0):
         return float("nan")
     keep = (u >= LINEAR_RANGE[0] * u_s) & (u <= LINEAR_RANGE[1] * u_s)
     if keep.sum() < 2:
         return float("nan")
-    a, b, _, _ = _line_fit(z[keep], u[keep])
+    a, b, _, _ = line_fit(z[keep], u[keep])
     return float(a / b) if np.isfinite(b) and b > 0 else float("nan")
 
 
@@ -94,7 +94,7 @@ def delta_cutoff(z, u, u_s, fraction: float = CUTOFF_FRACTION) -> float:
     above it bracket the bottom of the layer, interpolated linearly;
     :math:`\\delta = -z_{bottom}`, m. NaN if :math:`u` never falls that low.
     """
-    z, u = _profile(z, u, _surface_tolerance(z))
+    z, u = finite_profile(z, u, surface_tolerance(z))
     if not (np.isfinite(u_s) and u_s > 0) or len(z) == 0:
         return float("nan")
     z, u = z[::-1], u[::-1]  # from the surface down
@@ -158,7 +158,7 @@ def fit_exponential_tail(zt, ut, lo: float = TAIL_RANGE[0], hi: float = TAIL_RAN
     ok = np.isfinite(zt) & np.isfinite(ut) & (zt > lo) & (zt < hi) & (ut > 0)
     if ok.sum() < 2:
         return TailFit(*(float("nan"),) * 4)
-    a, k, a_se, k_se = _line_fit(zt[ok], np.log(ut[ok]))
+    a, k, a_se, k_se = line_fit(zt[ok], np.log(ut[ok]))
     A = float(np.exp(a))
     return TailFit(A, k, A * a_se, k_se)
 
@@ -181,12 +181,26 @@ def fit_power_law(x, y) -> PowerLawFit:
     ok = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
     if ok.sum() < 2:
         return PowerLawFit(*(float("nan"),) * 3)
-    a, b, _, b_se = _line_fit(np.log(x[ok]), np.log(y[ok]))
+    a, b, _, b_se = line_fit(np.log(x[ok]), np.log(y[ok]))
     return PowerLawFit(float(np.exp(a)), b, b_se)
 
 
 # --------------------------------------------------------------------------- along the heap
-def _column(df: pd.DataFrame, name: str) -> np.ndarray:
+def column(df: pd.DataFrame, name: str) -> np.ndarray:
+    """A column of a table as floats; all NaN when the table has no such column.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The table (e.g. the heap's per-x layer table).
+    name : str
+        The column's name.
+
+    Returns
+    -------
+    ndarray of float, shape (len(df),)
+        The column's values, in their unit.
+    """
     return df[name].to_numpy(dtype=float) if name in df else np.full(len(df), np.nan)
 
 
@@ -231,21 +245,21 @@ def _column_kinematics(group: pd.DataFrame, n_types: int, d_ref: float) -> dict:
     row["delta"] = delta
     if not np.isfinite(delta):
         return row
-    layer = (z > -delta) & (z <= _surface_tolerance(z))
+    layer = (z > -delta) & (z <= surface_tolerance(z))
     row["n_profile"] = int(np.sum(layer & finite))
     if row["n_profile"] < MIN_LAYER_POINTS:
         return row
     row["usable"] = True
-    zp, up = _profile(z, u)
+    zp, up = finite_profile(z, u)
     row["gamma_bar"] = float((u_s - np.interp(-delta, zp, up)) / delta)
     if "d_mean" in group and "n" in group:
-        n, d = _column(group, "n")[layer], _column(group, "d_mean")[layer]
+        n, d = column(group, "n")[layer], column(group, "d_mean")[layer]
         ok = np.isfinite(n) & np.isfinite(d) & (n > 0)
         row["d_bar"] = float(np.sum(n[ok] * d[ok]) / np.sum(n[ok])) if ok.any() else nan
     else:
         row["d_bar"] = float(d_ref)
     if n_types == 2 and "phi_1" in group and "phi_2" in group:
-        f1, f2 = np.nansum(_column(group, "phi_1")[layer]), np.nansum(_column(group, "phi_2")[layer])
+        f1, f2 = np.nansum(column(group, "phi_1")[layer]), np.nansum(column(group, "phi_2")[layer])
         row["c_s"] = float(f1 / (f1 + f2)) if f1 + f2 > 0 else nan
     return row
 
@@ -471,8 +485,8 @@ def collapse(profile: pd.DataFrame, per_x: pd.DataFrame, v_r_normal: float | Non
     keep = per_x["usable"].astype(bool) if "usable" in per_x else np.isfinite(per_x["delta"])
     scales = per_x.loc[keep, ["x", "u_s", "delta"]]
     merged = profile.merge(scales, on="x", how="inner")
-    merged = merged[merged["z"] <= _surface_tolerance(merged["z"])]
-    w = _column(merged, "w")
+    merged = merged[merged["z"] <= surface_tolerance(merged["z"])]
+    w = column(merged, "w")
     out = pd.DataFrame({
         "x": merged["x"].to_numpy(float), "z": merged["z"].to_numpy(float),
         "zt": (merged["z"] / merged["delta"]).to_numpy(float),
@@ -499,7 +513,7 @@ def delta_over_local_d(per_x: pd.DataFrame, x_range=DELTA_MEAN_RANGE) -> tuple[f
     mean, n : float, int
         NaN and 0 without a usable bin in the range.
     """
-    xl, delta, d = (_column(per_x, k) for k in ("x_over_L", "delta", "d_bar"))
+    xl, delta, d = (column(per_x, k) for k in ("x_over_L", "delta", "d_bar"))
     usable = per_x["usable"].astype(bool).to_numpy() if "usable" in per_x else np.isfinite(delta)
     sel = usable & (xl >= x_range[0]) & (xl <= x_range[1]) & np.isfinite(delta) & np.isfinite(d) & (d > 0)
     return (float(np.mean(delta[sel] / d[sel])), int(sel.sum())) if sel.any() else (float("nan"), 0)

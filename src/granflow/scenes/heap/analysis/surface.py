@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from postproc.overlap import _fraction_below, _slab_pairs, sphere_slab_fraction  # noqa: F401
+from postproc.overlap import fraction_below, slab_pairs, sphere_slab_fraction  # noqa: F401
 
 #: Volume-fraction cutoff of the free surface, :math:`f_c` (paper, section 3.1).
 PHI_C = 0.35
@@ -136,8 +136,21 @@ def uniform_edges(lo: float, hi: float, width: float) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- binning
-def _centre_bins(c: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """Bin index of each centre in ``[e_k, e_{k+1})`` (last edge included); -1 outside."""
+def centre_bins(c: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Bin index of each centre in ``[e_k, e_{k+1})`` (last edge included); -1 outside.
+
+    Parameters
+    ----------
+    c : ndarray, shape (n,)
+        Coordinate of each particle's centre along one axis, m.
+    edges : ndarray, shape (n_bins + 1,)
+        Increasing bin edges along that axis, m.
+
+    Returns
+    -------
+    ndarray of int, shape (n,)
+        The bin of each centre, ``0 .. n_bins - 1``; -1 for a centre outside the edges.
+    """
     n = len(edges) - 1
     i = np.searchsorted(edges, c, side="right") - 1
     i[c == edges[-1]] = n - 1
@@ -145,26 +158,51 @@ def _centre_bins(c: np.ndarray, edges: np.ndarray) -> np.ndarray:
     return i
 
 
-def _volume_pairs(a, b, radius, a_edges, b_edges, split: str | None):
+def volume_pairs(a, b, radius, a_edges, b_edges, split: str | None):
     """Particle volumes on a 2D grid of bins (a, b).
 
     ``split="b"`` splits each sphere exactly over the b-slabs and assigns it
     in a by its centre; ``split="a"`` the converse; ``None`` assigns whole
     particles by their centres. Returns ``particle, flat_bin, volume``.
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (n,)
+        Coordinates of each particle's centre along the grid's two axes, m.
+    radius : ndarray, shape (n,)
+        Radius of each particle, m.
+    a_edges, b_edges : ndarray, shapes (n_a + 1,) and (n_b + 1,)
+        Increasing bin edges along each axis, m.
+    split : {"a", "b", None}
+        The axis along which spheres are split exactly over the slabs, or None.
+
+    Returns
+    -------
+    particle : ndarray of int, shape (n_pairs,)
+        Index of the particle of each (particle, bin) pair inside the grid.
+    flat_bin : ndarray of int, shape (n_pairs,)
+        The pair's bin, ``i_a * n_b + i_b``.
+    volume : ndarray of float, shape (n_pairs,)
+        The particle's volume in that bin, m^3.
+
+    Raises
+    ------
+    ValueError
+        If ``split`` is none of ``"a"``, ``"b"`` and None.
     """
     volume = 4.0 / 3.0 * np.pi * radius**3
     n_b = len(b_edges) - 1
     if split == "b":
-        ia = _centre_bins(a, a_edges)
-        p, ib, f = _slab_pairs(b, radius, b_edges)
+        ia = centre_bins(a, a_edges)
+        p, ib, f = slab_pairs(b, radius, b_edges)
         ia = ia[p]
     elif split == "a":
-        ib = _centre_bins(b, b_edges)
-        p, ia, f = _slab_pairs(a, radius, a_edges)
+        ib = centre_bins(b, b_edges)
+        p, ia, f = slab_pairs(a, radius, a_edges)
         ib = ib[p]
     elif split is None:
         p = np.arange(len(a))
-        ia, ib, f = _centre_bins(a, a_edges), _centre_bins(b, b_edges), np.ones(len(a))
+        ia, ib, f = centre_bins(a, a_edges), centre_bins(b, b_edges), np.ones(len(a))
     else:
         raise ValueError(f"split axis must be one of the two grid axes or None, got {split!r}")
     inside = (ia >= 0) & (ib >= 0)
@@ -211,7 +249,7 @@ def volume_fraction_columns(position, radius, geometry: HeapGeometry, dx: float,
     radius = np.asarray(radius, dtype=float)
     x_edges = uniform_edges(0.0, geometry.W, dx)
     z_edges = uniform_edges(z_lo, z_hi, dz)
-    _, flat, vol = _volume_pairs(position[:, 0], position[:, 2], radius, x_edges, z_edges, "b")
+    _, flat, vol = volume_pairs(position[:, 0], position[:, 2], radius, x_edges, z_edges, "b")
     n_x, n_z = len(x_edges) - 1, len(z_edges) - 1
     total = np.bincount(flat, weights=vol, minlength=n_x * n_z).reshape(n_x, n_z)
     bin_volume = np.outer(np.diff(x_edges), np.diff(z_edges)) * geometry.T
@@ -363,8 +401,21 @@ def _row_line_fits(x, y):
     return a, b, a_se, b_se
 
 
-def _line_fit(x, y):
-    """One least-squares line (see :func:`_row_line_fits`); floats ``a, b, a_se, b_se``."""
+def line_fit(x, y):
+    """One least-squares line (see :func:`_row_line_fits`); floats ``a, b, a_se, b_se``.
+
+    Parameters
+    ----------
+    x, y : array_like, shape (n,)
+        The points, any units; pairs where either is not finite are left out.
+
+    Returns
+    -------
+    a, b, a_se, b_se : float
+        Intercept (unit of y) and slope (unit of y per unit of x) of :math:`y = a + b x`
+        and their standard errors; the line is NaN without two points spread in x,
+        the errors without three points.
+    """
     return tuple(float(v[0]) for v in _row_line_fits(np.asarray(x, float)[None, :], np.asarray(y, float)[None, :]))
 
 
@@ -522,5 +573,5 @@ def rise_inefficiency(surface: pd.DataFrame, x_range) -> float:
     if len(mean) < 4:
         return float("nan")
     t, z = mean.index.to_numpy(float), mean.to_numpy(float)
-    a, b, _, _ = _line_fit(t, z)
+    a, b, _, _ = line_fit(t, z)
     return statistical_inefficiency(z - (a + b * t))

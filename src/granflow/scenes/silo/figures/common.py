@@ -8,8 +8,8 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 import granflow.scenes.silo.analysis as silo
-from granflow.plotting import NO_CASE, _colourbar, _finite, _frame, _label, _say, _scalar, _unavailable
-from granflow.plotting import _finish_cases as _finish_with_footer
+from granflow.plotting import NO_CASE, add_colourbar, finite, frame, case_label, say, scalar, unavailable
+from granflow.plotting import finish_cases as _finish_with_footer
 
 #: The paper's reference orifice, R = 12 r_b (figures 3, 6).
 R_REFERENCE = 12.0
@@ -46,7 +46,7 @@ def finish_with_rung(fig: Figure, cases: list[dict], path, right_in: float = 0.2
 
 def no_case(axes):
     for ax in np.ravel(axes):
-        _say(ax, NO_CASE, fontsize=11)
+        say(ax, NO_CASE, fontsize=11)
 
 
 def has_values(df: pd.DataFrame, *cols: str) -> bool:
@@ -54,12 +54,12 @@ def has_values(df: pd.DataFrame, *cols: str) -> bool:
 
 
 def R_over_rb(case: dict) -> float:
-    return _scalar(case, "R") / _scalar(case, "r_b")
+    return scalar(case, "R") / scalar(case, "r_b")
 
 
 def case_name(case: dict) -> str:
     """The case's label, with R/r_b appended unless the label already names R."""
-    x, label = R_over_rb(case), _label(case)
+    x, label = R_over_rb(case), case_label(case)
     if not np.isfinite(x) or re.search(r"\bR\s*=", label):
         return label
     return f"{label} (R = {x:.3g} $r_b$)"
@@ -67,7 +67,7 @@ def case_name(case: dict) -> str:
 
 def reference_case(cases: list[dict], key: str, *cols: str):
     """(index, case) of the case with R closest to 12 r_b among those whose table ``key`` has ``cols``."""
-    have = [(i, c) for i, c in enumerate(cases) if has_values(_frame(c, key), *cols)]
+    have = [(i, c) for i, c in enumerate(cases) if has_values(frame(c, key), *cols)]
     if not have:
         return None
     return min(have, key=lambda ic: abs(np.nan_to_num(R_over_rb(ic[1]), nan=np.inf) - R_REFERENCE))
@@ -75,7 +75,7 @@ def reference_case(cases: list[dict], key: str, *cols: str):
 
 def length_unit(case: dict, kind: str) -> tuple[float, str]:
     """Scale and label of a height axis: ``kind`` "R" (z/R) or "2rb" (z/2r_b); metres if unknown."""
-    scale = _scalar(case, "R") if kind == "R" else 2 * _scalar(case, "r_b")
+    scale = scalar(case, "R") if kind == "R" else 2 * scalar(case, "r_b")
     if np.isfinite(scale) and scale > 0:
         return scale, r"$z/R$" if kind == "R" else r"$z/2r_b$"
     return 1.0, r"$z$ [m]"
@@ -89,7 +89,7 @@ def log_inset(ax, bounds=(0.58, 0.55, 0.38, 0.38)):
 
 
 def plot_positive(ax, x, y, **kw) -> bool:
-    x, y = _finite(x, y)
+    x, y = finite(x, y)
     ok = y > 0
     if not ok.any():
         return False
@@ -100,7 +100,7 @@ def plot_positive(ax, x, y, **kw) -> bool:
 def finite_errorbar(ax, x, y, yerr=None, **kw) -> bool:
     """Errorbar of the finite (x, y) pairs sorted by x (NaN errors drawn as 0); whether drawn."""
     yerr = np.zeros(len(np.atleast_1d(x))) if yerr is None else np.nan_to_num(np.asarray(yerr, dtype=float))
-    x, y, e = _finite(x, y, yerr)
+    x, y, e = finite(x, y, yerr)
     if not len(x):
         return False
     ax.errorbar(x, y, yerr=e, **kw)
@@ -112,25 +112,25 @@ def draw_map(fig: Figure, ax, table: pd.DataFrame, column: str, label: str, case
     """Colour map of a field on the (r, z) grid with the silo bottom drawn; the mappable or None."""
     r, z, values = silo.field_map(table, column)
     if not np.isfinite(values).any():
-        _unavailable(ax, label)
+        unavailable(ax, label)
         return None
     if norm is not None:
         values = np.where(values > 0, values, np.nan)
     mesh = ax.pcolormesh(r, z, values.T, shading="nearest", cmap=cmap, norm=norm)
-    R, R_c = _scalar(case, "R"), _scalar(case, "R_c")
+    R, R_c = scalar(case, "R"), scalar(case, "R_c")
     if np.isfinite(R):
         ax.plot([R, np.nanmax([R_c, r.max()])], [0, 0], color="black", lw=3, solid_capstyle="butt")
     ax.set_aspect("equal", adjustable="box")
     ax.set(xlabel=r"$r$ [m]", ylabel=r"$z$ [m]")
     if colourbar:
-        _colourbar(fig, ax, mesh, label)
+        add_colourbar(fig, ax, mesh, label)
     return mesh
 
 
 def species_label(case: dict, s: int, prefix: str = "") -> str:
     scalars = case.get("scalars") or {}
     radii = scalars.get("radii") if hasattr(scalars, "get") else None
-    r_b = _scalar(case, "r_b")
+    r_b = scalar(case, "r_b")
     try:
         radius = float(np.sort(np.asarray(radii, dtype=float))[s - 1])
     except (TypeError, ValueError, IndexError):

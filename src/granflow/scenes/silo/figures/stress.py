@@ -11,16 +11,16 @@ from matplotlib.figure import Figure
 import granflow.scenes.silo.analysis as silo
 from granflow.plotting import (
     MARKERS,
-    _col,
-    _colour,
-    _colourbar,
-    _frame,
-    _new_figure,
-    _plot,
-    _pm,
-    _positive,
-    _scalar,
-    _unavailable,
+    float_column,
+    cycle_colour,
+    add_colourbar,
+    frame,
+    new_figure,
+    plot,
+    pm,
+    positive_mask,
+    scalar,
+    unavailable,
 )
 
 from .common import (
@@ -50,39 +50,39 @@ def fig07_kinetic_pressure_maps(cases: list[dict], path) -> Figure:
     per row; values below
     :math:`10^{-4}` of the largest are left blank.
     """
-    order = sorted(range(len(cases)), key=lambda i: np.nan_to_num(_scalar(cases[i], "R"), nan=np.inf))
+    order = sorted(range(len(cases)), key=lambda i: np.nan_to_num(scalar(cases[i], "R"), nan=np.inf))
     n = max(1, len(cases))
     ncols = min(n, MAPS_PER_ROW)
     nrows = -(-n // ncols)
-    fig, grid = _new_figure(nrows, ncols, (3.6 * ncols + 1.2, 5.2 * nrows))
+    fig, grid = new_figure(nrows, ncols, (3.6 * ncols + 1.2, 5.2 * nrows))
     for ax in grid.ravel()[n:]:
         fig.delaxes(ax)
     axes = grid.ravel()[:n]
     if not cases:
         no_case(axes)
         return finish_with_rung(fig, cases, path, right_in=0.9)
-    pos = [_col(_frame(c, "fields"), "pk") for c in cases]
-    pos = np.concatenate([p[_positive(p)] for p in pos]) if pos else np.array([])
+    pos = [float_column(frame(c, "fields"), "pk") for c in cases]
+    pos = np.concatenate([p[positive_mask(p)] for p in pos]) if pos else np.array([])
     norm = LogNorm(vmin=max(pos.min(), pos.max() * LOG_RANGE), vmax=pos.max()) if len(pos) else None
     mappable = None
     for k, i in enumerate(order):
         ax, case = axes[k], cases[i]
         ax.set_title(f"({chr(97 + k)}) {case_name(case)}", fontsize=9)
         if norm is None:
-            _unavailable(ax, "kinetic pressure")
+            unavailable(ax, "kinetic pressure")
             continue
-        mappable = draw_map(fig, ax, _frame(case, "fields"), "pk", r"$p^k$ [Pa]", case, norm=norm, cmap="inferno",
+        mappable = draw_map(fig, ax, frame(case, "fields"), "pk", r"$p^k$ [Pa]", case, norm=norm, cmap="inferno",
                             colourbar=False) or mappable
         if k % ncols:
             ax.set_ylabel("")
     if mappable is not None:
-        _colourbar(fig, axes[-1], mappable, r"$p^k$ [Pa]")
+        add_colourbar(fig, axes[-1], mappable, r"$p^k$ [Pa]")
     return finish_with_rung(fig, cases, path, right_in=0.9)
 
 
 def _h_c(case: dict, prof: pd.DataFrame) -> tuple[float, float]:
     """h_c and its error: the case's scalars, else measured on ``prof`` (:func:`granflow.scenes.silo.analysis.transition_height`)."""
-    h, h_se = _scalar(case, "h_c"), _scalar(case, "h_c_se")
+    h, h_se = scalar(case, "h_c"), scalar(case, "h_c_se")
     if np.isfinite(h):
         return h, h_se
     return silo.transition_height(prof["z"], prof["value"], prof["value_se"])
@@ -94,7 +94,7 @@ def fig08_kinetic_axis(cases: list[dict], path) -> Figure:
     The dotted vertical lines mark each case's transition height :math:`h_c/R`
     (:func:`granflow.scenes.silo.analysis.transition_height`), given with its error in the legend.
     """
-    fig, axes = _new_figure(1, 1, (7.5, 5.2))
+    fig, axes = new_figure(1, 1, (7.5, 5.2))
     ax = axes[0, 0]
     ax.set(ylabel=r"$p^k(r=0)$ [Pa]", title="kinetic pressure on the axis")
     inset = log_inset(ax)
@@ -105,11 +105,11 @@ def fig08_kinetic_axis(cases: list[dict], path) -> Figure:
     drawn = False
     xlabel = r"$z/R$"
     for i, case in enumerate(cases):
-        prof = silo.axis_profile(_frame(case, "fields"), "pk")
+        prof = silo.axis_profile(frame(case, "fields"), "pk")
         scale, xlabel_i = length_unit(case, "R")
-        colour = _colour(i)
+        colour = cycle_colour(i)
         h, h_se = _h_c(case, prof)
-        label = f"{case_name(case)}: $h_c/R$ = {_pm(h / scale, h_se / scale, '.2f')}"
+        label = f"{case_name(case)}: $h_c/R$ = {pm(h / scale, h_se / scale, '.2f')}"
         d = finite_errorbar(ax, prof["z"] / scale, prof["value"], prof["value_se"], color=colour,
                             marker=MARKERS[i % len(MARKERS)], ms=3, lw=0.8, capsize=1.5, label=label)
         if d:
@@ -122,7 +122,7 @@ def fig08_kinetic_axis(cases: list[dict], path) -> Figure:
     if drawn:
         ax.legend(fontsize=7, loc="upper right", bbox_to_anchor=(1.0, 0.5))
     else:
-        _unavailable(ax, "kinetic pressure on the axis")
+        unavailable(ax, "kinetic pressure on the axis")
     return finish_with_rung(fig, cases, path)
 
 
@@ -132,7 +132,7 @@ def fig09_kinetic_w(cases: list[dict], path) -> Figure:
     For the case with R closest to :math:`12 r_b` among those with a kinetic
     scan; the legend gives :math:`h_c` measured at each w.
     """
-    fig, axes = _new_figure(1, 1, (7.5, 5.2))
+    fig, axes = new_figure(1, 1, (7.5, 5.2))
     ax = axes[0, 0]
     ax.set(ylabel=r"$p^k(r=0)$ [Pa]")
     inset = log_inset(ax)
@@ -141,29 +141,29 @@ def fig09_kinetic_w(cases: list[dict], path) -> Figure:
         no_case(axes)
         return finish_with_rung(fig, cases, path)
     have = [(i, c) for i, c in enumerate(cases)
-            if isinstance(c.get("kinetic_scan"), dict) and any(has_values(_frame(c["kinetic_scan"], w), "pk")
+            if isinstance(c.get("kinetic_scan"), dict) and any(has_values(frame(c["kinetic_scan"], w), "pk")
                                                                for w in c["kinetic_scan"])]
     ax.set_xlabel(r"$z/2r_b$")
     if not have:
         ax.set_title("kinetic pressure on the axis for several w")
-        _unavailable(ax, "kinetic scan over w")
+        unavailable(ax, "kinetic scan over w")
         return finish_with_rung(fig, cases, path)
     _, case = min(have, key=lambda ic: abs(np.nan_to_num(R_over_rb(ic[1]), nan=np.inf) - R_REFERENCE))
     scale, xlabel = length_unit(case, "2rb")
-    r_b = _scalar(case, "r_b")
+    r_b = scalar(case, "r_b")
     ax.set(xlabel=xlabel, title=f"kinetic pressure on the axis for several w, {case_name(case)}")
     scan = case["kinetic_scan"]
     for j, w in enumerate(sorted(scan, key=float)):
-        prof = silo.axis_profile(_frame(scan, w), "pk")
+        prof = silo.axis_profile(frame(scan, w), "pk")
         h, h_se = silo.transition_height(prof["z"], prof["value"], prof["value_se"])
         w_text = f"w = {float(w) / r_b:.3g} $r_b$" if np.isfinite(r_b) else f"w = {float(w):.3g} m"
-        h_text = f"$h_c/2r_b$ = {_pm(h / scale, h_se / scale, '.2f')}" if scale != 1.0 else \
-            f"$h_c$ = {_pm(h, h_se, '.3g', 'm')}"
-        if finite_errorbar(ax, prof["z"] / scale, prof["value"], prof["value_se"], color=_colour(j),
+        h_text = f"$h_c/2r_b$ = {pm(h / scale, h_se / scale, '.2f')}" if scale != 1.0 else \
+            f"$h_c$ = {pm(h, h_se, '.3g', 'm')}"
+        if finite_errorbar(ax, prof["z"] / scale, prof["value"], prof["value_se"], color=cycle_colour(j),
                            marker=MARKERS[j % len(MARKERS)], ms=3, lw=0.8, capsize=1.5, label=f"{w_text}: {h_text}"):
-            plot_positive(inset, prof["z"] / scale, prof["value"], color=_colour(j), lw=0.8)
+            plot_positive(inset, prof["z"] / scale, prof["value"], color=cycle_colour(j), lw=0.8)
             if np.isfinite(h):
-                ax.axvline(h / scale, color=_colour(j), ls=":", lw=1)
+                ax.axvline(h / scale, color=cycle_colour(j), ls=":", lw=1)
     ax.legend(fontsize=7, loc="upper right", bbox_to_anchor=(1.0, 0.5))
     return finish_with_rung(fig, cases, path)
 
@@ -175,7 +175,7 @@ def fig10_cumulative(cases: list[dict], path) -> Figure:
     for the smallest :math:`r'` is the total :math:`p^k` (dashed black,
     drawn from the ``pk`` column as a check).
     """
-    fig, axes = _new_figure(1, 1, (7.5, 5.2))
+    fig, axes = new_figure(1, 1, (7.5, 5.2))
     ax = axes[0, 0]
     ax.set(xlabel=r"$z/2r_b$", ylabel=r"cumulative $p^k(r=0)$ [Pa]")
     inset = log_inset(ax)
@@ -185,21 +185,21 @@ def fig10_cumulative(cases: list[dict], path) -> Figure:
     ref = reference_case(cases, "fields", "pk_s1")
     if ref is None:
         ax.set_title("cumulative kinetic pressure on the axis")
-        _unavailable(ax, "partial kinetic pressures")
+        unavailable(ax, "partial kinetic pressures")
         return finish_with_rung(fig, cases, path)
     case = ref[1]
-    table = _frame(case, "fields")
+    table = frame(case, "fields")
     scale, xlabel = length_unit(case, "2rb")
     ax.set(xlabel=xlabel, title=f"cumulative kinetic pressure on the axis, {case_name(case)}")
     cum = silo.cumulative_kinetic_pressure(table)
     ids = silo.species_ids(table, "pk")
     for j, s in enumerate(ids):
         prof = silo.axis_profile(cum, f"pk_cum_s{s}")
-        kw = dict(color=_colour(j), lw=1)
-        _plot(ax, prof["z"] / scale, prof["value"], label=species_label(case, s, "sizes ≥ "), **kw)
+        kw = dict(color=cycle_colour(j), lw=1)
+        plot(ax, prof["z"] / scale, prof["value"], label=species_label(case, s, "sizes ≥ "), **kw)
         plot_positive(inset, prof["z"] / scale, prof["value"], **kw)
     total = silo.axis_profile(table, "pk")
-    if _plot(ax, total["z"] / scale, total["value"], color="black", ls="--", lw=1,
+    if plot(ax, total["z"] / scale, total["value"], color="black", ls="--", lw=1,
              label=r"total $p^k$ (column pk)"):
         plot_positive(inset, total["z"] / scale, total["value"], color="black", ls="--", lw=1)
     ax.legend(fontsize=7, loc="upper right", bbox_to_anchor=(1.0, 0.5))
@@ -211,7 +211,7 @@ def fig11_partial(cases: list[dict], path) -> Figure:
 
     For the case with R closest to :math:`12 r_b` (main fields).
     """
-    fig, axes = _new_figure(1, 2, (12, 4.8))
+    fig, axes = new_figure(1, 2, (12, 4.8))
     ax_a, ax_b = axes[0]
     ax_b.set_yscale("log")
     for ax in (ax_a, ax_b):
@@ -223,16 +223,16 @@ def fig11_partial(cases: list[dict], path) -> Figure:
         return finish_with_rung(fig, cases, path)
     ref = reference_case(cases, "fields", "pk_s1")
     if ref is None:
-        _unavailable(ax_a, "partial kinetic pressures")
-        _unavailable(ax_b, "partial kinetic pressures")
+        unavailable(ax_a, "partial kinetic pressures")
+        unavailable(ax_b, "partial kinetic pressures")
         return finish_with_rung(fig, cases, path)
     case = ref[1]
-    table = _frame(case, "fields")
+    table = frame(case, "fields")
     scale, xlabel = length_unit(case, "2rb")
     ax_a.set_title(f"(a) partial kinetic pressure on the axis, {case_name(case)}", fontsize=9)
     for j, s in enumerate(silo.species_ids(table, "pk")):
         prof = silo.axis_profile(table, f"pk_s{s}")
-        kw = dict(color=_colour(j), marker=MARKERS[j % len(MARKERS)], ms=2.5, lw=0.8,
+        kw = dict(color=cycle_colour(j), marker=MARKERS[j % len(MARKERS)], ms=2.5, lw=0.8,
                   label=species_label(case, s))
         finite_errorbar(ax_a, prof["z"] / scale, prof["value"], prof["value_se"], capsize=1, **kw)
         plot_positive(ax_b, prof["z"] / scale, prof["value"], **kw)
@@ -248,7 +248,7 @@ def fig12_partial_over_phi(cases: list[dict], path) -> Figure:
     Nodes with :math:`\\phi_s < 10^{-3}` are left out
     (:func:`granflow.scenes.silo.analysis.partial_over_fraction`).
     """
-    fig, axes = _new_figure(1, 1, (7.5, 5.2))
+    fig, axes = new_figure(1, 1, (7.5, 5.2))
     ax = axes[0, 0]
     ax.set_yscale("log")
     ax.set(xlabel=r"$z/2r_b$", ylabel=r"$p^k_s/\phi_s\ (r=0)$ [Pa]")
@@ -258,27 +258,27 @@ def fig12_partial_over_phi(cases: list[dict], path) -> Figure:
     ref = reference_case(cases, "fields", "pk_s1", "phi_s1")
     if ref is None:
         ax.set_title("partial kinetic pressure per partial volume fraction")
-        _unavailable(ax, "partial kinetic pressures and volume fractions")
+        unavailable(ax, "partial kinetic pressures and volume fractions")
         return finish_with_rung(fig, cases, path)
     case = ref[1]
-    table = silo.partial_over_fraction(_frame(case, "fields"))
+    table = silo.partial_over_fraction(frame(case, "fields"))
     scale, xlabel = length_unit(case, "2rb")
     ax.set(xlabel=xlabel, title=f"partial kinetic pressure per partial volume fraction, {case_name(case)}")
     drawn = False
     for j, s in enumerate(silo.species_ids(table, "pk_over_phi")):
         prof = silo.axis_profile(table, f"pk_over_phi_s{s}")
-        drawn |= plot_positive(ax, prof["z"] / scale, prof["value"], color=_colour(j),
+        drawn |= plot_positive(ax, prof["z"] / scale, prof["value"], color=cycle_colour(j),
                                marker=MARKERS[j % len(MARKERS)], ms=2.5, lw=0.8, label=species_label(case, s))
     if drawn:
         ax.legend(fontsize=7)
     else:
-        _unavailable(ax, "positive p_s/φ_s")
+        unavailable(ax, "positive p_s/φ_s")
     return finish_with_rung(fig, cases, path)
 
 
 def _beverloo_inputs(cases: list[dict]):
     """Orifice diameters, steady rates and errors of the cases with a finite rate, and the material constants."""
-    rows = [(2 * _scalar(c, "R"), _scalar(c, "W_f"), _W_se(c), i, c) for i, c in enumerate(cases)]
+    rows = [(2 * scalar(c, "R"), scalar(c, "W_f"), _W_se(c), i, c) for i, c in enumerate(cases)]
     rows = [r for r in rows if np.isfinite(r[0]) and np.isfinite(r[1])]
     if not rows:
         return rows, {}
@@ -289,18 +289,18 @@ def _beverloo_inputs(cases: list[dict]):
         d = silo.mean_diameter(radii)
     except (TypeError, ValueError):
         d = np.nan
-    rho_b = _scalar(first, "rho_bulk")
+    rho_b = scalar(first, "rho_bulk")
     if not np.isfinite(rho_b):
-        rho_b = _scalar(first, "density") * _scalar(first, "phi_b")
+        rho_b = scalar(first, "density") * scalar(first, "phi_b")
     have_phi_b = bool(np.isfinite(rho_b))
-    return rows, dict(d=d, g=_scalar(first, "gravity"), rho_b=rho_b if have_phi_b else _scalar(first, "density"),
+    return rows, dict(d=d, g=scalar(first, "gravity"), rho_b=rho_b if have_phi_b else scalar(first, "density"),
                       have_phi_b=have_phi_b)
 
 
 def _W_se(case: dict) -> float:
     """Standard error of the steady rate: ``W_se``, else ``W_f_se``."""
-    se = _scalar(case, "W_se")
-    return se if np.isfinite(se) else _scalar(case, "W_f_se")
+    se = scalar(case, "W_se")
+    return se if np.isfinite(se) else scalar(case, "W_f_se")
 
 
 def fig13_beverloo(cases: list[dict], path) -> Figure:
@@ -315,7 +315,7 @@ def fig13_beverloo(cases: list[dict], path) -> Figure:
     At least three orifice sizes are needed; otherwise both panels say so
     and show the points only.
     """
-    fig, axes = _new_figure(1, 2, (12, 4.8))
+    fig, axes = new_figure(1, 2, (12, 4.8))
     ax_a, ax_b = axes[0]
     ax_a.set(xlabel=r"$D = 2R$ [m]", ylabel=r"$W$ [kg/s]", title="(a) steady discharge rate")
     ax_b.set(xlabel=r"$D = 2R$ [m]", ylabel=r"$W^{2/5}$ [(kg/s)$^{2/5}$]", title="(b) linearisation")
@@ -324,14 +324,14 @@ def fig13_beverloo(cases: list[dict], path) -> Figure:
         return finish_with_rung(fig, cases, path)
     rows, const = _beverloo_inputs(cases)
     if not rows:
-        _unavailable(ax_a, "steady flow rate")
-        _unavailable(ax_b, "steady flow rate")
+        unavailable(ax_a, "steady flow rate")
+        unavailable(ax_b, "steady flow rate")
         return finish_with_rung(fig, cases, path)
     D = np.array([r[0] for r in rows])
     W = np.array([r[1] for r in rows])
     W_se = np.array([r[2] for r in rows])
     for D_i, W_i, se_i, i, c in rows:
-        style = dict(color=_colour(i), marker=MARKERS[i % len(MARKERS)], ms=5, ls="none", capsize=2,
+        style = dict(color=cycle_colour(i), marker=MARKERS[i % len(MARKERS)], ms=5, ls="none", capsize=2,
                      label=case_name(c))
         ax_a.errorbar([D_i], [W_i], yerr=[np.nan_to_num(se_i)], **style)
         if W_i > 0:
@@ -352,8 +352,8 @@ def fig13_beverloo(cases: list[dict], path) -> Figure:
         c_name = "C" if const["have_phi_b"] else r"$C\phi_b$"
         chi = f", $\\chi^2/\\nu$ = {fit['chi2_dof']:.2g}" if np.isfinite(fit["chi2_dof"]) else ""
         ax_a.plot(grid, silo.beverloo_law(grid, fit["C"], fit["k"], const["rho_b"], const["g"], const["d"]),
-                  "k-", lw=1.2, label=f"Beverloo fit: {c_name} = {_pm(fit['C'], fit['C_se'])}, "
-                                      f"k = {_pm(fit['k'], fit['k_se'])}{chi}")
+                  "k-", lw=1.2, label=f"Beverloo fit: {c_name} = {pm(fit['C'], fit['C_se'])}, "
+                                      f"k = {pm(fit['k'], fit['k_se'])}{chi}")
     if np.isfinite(lin["slope"]):
         ax_b.plot(grid, lin["slope"] * grid + lin["intercept"], "k-", lw=1,
                   label=f"line: zero at D = {lin['D0']:.3g} m" + (

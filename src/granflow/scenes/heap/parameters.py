@@ -71,7 +71,7 @@ def pair_time_model(scene: dict, rung: dict, sp: list[dict]) -> ContactModel:
     :math:`k_t = (k_t/k_n)\,k_n`, and ``damping coeff_restitution``, which damps every
     contact from its own :math:`m_{eff}`: e is the paper's for every contact, exactly.
     Inside a species the diameters spread by ``size_spread`` (uniform), so a contact of two
-    particles of one species lasts :math:`t_c\sqrt{m_{eff}/\langle m_{eff}angle}`: from
+    particles of one species lasts :math:`t_c\sqrt{m_{eff}/\langle m_{eff}\rangle}`: from
     the two smallest to the two largest of a species, 0.71 to 1.25 t_c at the paper's
     spread 0.1 (the paper's per-contact k_n keeps t_c for all). The listed contacts are
     these extremes, so the shortest limits the time step.

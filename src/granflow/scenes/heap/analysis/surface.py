@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from postproc.overlap import fraction_below, slab_pairs, sphere_slab_fraction  # noqa: F401
+from postproc.overlap import slab_pairs, sphere_slab_fraction  # noqa: F401 (sphere_slab_fraction re-exported by the analysis package)
 
 #: Volume-fraction cutoff of the free surface, :math:`f_c` (paper, section 3.1).
 PHI_C = 0.35

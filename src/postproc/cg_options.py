@@ -165,6 +165,12 @@ class Grid:
                          zip(self.names, self.ranges, self.counts))
 
 
+def _is_pair(value) -> bool:
+    """Whether ``value`` is one ``(lo, hi)`` of two numbers rather than a sequence of them."""
+    return (isinstance(value, (list, tuple)) and len(value) == 2
+            and all(isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) for v in value))
+
+
 def _per_coordinate(values, names: Sequence[str], option: str) -> list:
     values = list(values) if isinstance(values, (list, tuple)) else [values]
     if len(values) == 1:
@@ -305,6 +311,8 @@ def make_grid(names: Sequence[str], spacing, ranges, box: np.ndarray, axis=None,
         below 0, or a single node with a smooth kernel.
     """
     spacing = _per_coordinate(spacing, names, "--spacing")
+    if ranges is not None and _is_pair(ranges):  # one (lo, hi) for every coordinate, as documented
+        ranges = [tuple(ranges)]
     ranges = _per_coordinate(ranges, names, "--range") if ranges is not None else [None] * len(names)
     out_ranges, counts, notes = [], [], []
     for name, h, rng in zip(names, spacing, ranges):

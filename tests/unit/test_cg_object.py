@@ -394,3 +394,17 @@ def test_options_are_held_frozen_and_normalised():
         CoarseGraining(options, coords="z")
     with pytest.raises(TypeError):
         CGOptions("z", spacing=1.0)  # keyword only
+
+
+def test_one_range_pair_is_every_coordinates_range(inputs, one_thread):
+    """``ranges=(lo, hi)``, as documented, is the range of every coordinate: the same grid and fields as
+    ``ranges=[(lo, hi)]`` (one coordinate) and as one pair per coordinate (two)."""
+    dump = str(inputs["atoms.dump"])
+    base = dict(kernel="heaviside", spacing=1.0)
+    one = coarse_grain([dump], coords="z", ranges=(1.0, 6.0), **base)
+    listed = coarse_grain([dump], coords="z", ranges=[(1.0, 6.0)], **base)
+    assert one.meta["grid"]["ranges"] == [[1.0, 6.0]] and bitwise_equal(one.fields["rho"].to_numpy(), listed.fields["rho"].to_numpy())
+    two = coarse_grain([dump], coords="xz", ranges=(1.0, 6.0), **base)
+    each = coarse_grain([dump], coords="xz", ranges=[(1.0, 6.0), (1.0, 6.0)], **base)
+    assert two.meta["grid"]["ranges"] == [[1.0, 6.0], [1.0, 6.0]]
+    assert bitwise_equal(two.fields["rho"].to_numpy(), each.fields["rho"].to_numpy())

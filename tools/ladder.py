@@ -189,6 +189,12 @@ def table(ladder: dict, results: Path) -> pd.DataFrame:
             continue
         if not checks:
             rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "not run", "cpu_hours": np.nan})
+        ended = [f"{c['status']}: {c['reason']}" for c in cases if c.get("status") not in ("steady", None)]
+        if checks and ended and not any(math.isfinite(c.ours) for c in checks):
+            # ran, but nothing measurable: the run's own status says why (a guard, no steady state, ...)
+            rows.append({"rung": rung["name"], "knob": rung["knob"], "cases": len(cases), "cpu_hours": cpu,
+                         "state": "ran, not measured: " + "; ".join(ended)})
+            continue
         for c in checks:
             rows.append({"rung": rung["name"], "knob": rung["knob"], "state": state, "quantity": c.quantity,
                          "paper": c.paper, "ours": c.ours, "stat": c.error, "syst": c.syst, "verdict": c.verdict,

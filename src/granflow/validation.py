@@ -393,7 +393,7 @@ def read_case(path: Path) -> tuple[dict, dict, dict, str]:
 
 def read_table(file: Path) -> pd.DataFrame:
     """A CSV table (a case's ``analysis/<name>.csv``, a scene's ``table.csv``), or an empty table where
-    the file is absent or empty.
+    the file is absent, empty or holds no columns (what an empty DataFrame writes).
 
     Parameters
     ----------
@@ -401,7 +401,12 @@ def read_table(file: Path) -> pd.DataFrame:
         The CSV file.
     """
     file = Path(file)
-    return pd.read_csv(file) if file.exists() and file.stat().st_size else pd.DataFrame()
+    if not (file.exists() and file.stat().st_size):
+        return pd.DataFrame()
+    try:
+        return pd.read_csv(file)
+    except pd.errors.EmptyDataError:  # a table without columns (an analysis of a run that was not averaged)
+        return pd.DataFrame()
 
 
 def concat_profiles(named_parts) -> dict[str, pd.DataFrame]:

@@ -190,3 +190,17 @@ def test_a_subset_variant_counts_only_its_shift_beyond_its_own_statistics():
     assert validation.systematic(1.0, {"half": (2.0, 0.11)})[0] == pytest.approx(1.0)
     # plain values and pairs mix
     assert validation.systematic(1.0, {"a": 1.2, "b": (1.05, 0.2)}, central_se=0.1)[0] == pytest.approx(0.2)
+
+
+def test_read_table_takes_a_table_without_columns_as_empty(tmp_path):
+    """An analysis of a run that was not averaged writes its tables from empty DataFrames (a lone newline):
+    reading them gives empty tables, not pandas' EmptyDataError (the heap ladder's unstable rung hit it)."""
+    import pandas as pd
+
+    from granflow.validation import read_table
+
+    pd.DataFrame().to_csv(tmp_path / "none.csv", index=False)
+    assert (tmp_path / "none.csv").stat().st_size > 0 and read_table(tmp_path / "none.csv").empty
+    assert read_table(tmp_path / "absent.csv").empty
+    pd.DataFrame({"x": [1.0, 2.0]}).to_csv(tmp_path / "x.csv", index=False)
+    assert list(read_table(tmp_path / "x.csv")["x"]) == [1.0, 2.0]

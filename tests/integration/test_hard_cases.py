@@ -13,10 +13,10 @@ pytestmark = pytest.mark.lammps
 
 def test_stiff_particles_with_proper_step_run_clean(channel_scene, tmp_path, smoke_variant, run_smoke):
     # k_n = 1e8 at dt = 0.08 t_c: 30x more steps per time unit than k_n = 1e5,
-    # so the run is shortened (settle 10, flow 1, average 0.5 time units)
+    # so the run is shortened (settle 5, flow 1, average 0.5 time units)
     scene = smoke_variant(channel_scene, k_n=1e8, t_flow_max=1.0, t_segment=1.0, t_average=0.5,
                   dump_interval=0.25, thermo_interval=0.25)
-    scene["protocol"]["settle_time"] = 10.0
+    scene["protocol"]["settle_time"] = 5.0
     scene["protocol"]["fill_packing"] = 0.25
     status = run_smoke(scene, tmp_path, {"phi_mean": 0.60}, nprocs=2)
     assert status["status"] != "unstable", status["reason"]

@@ -111,10 +111,11 @@ def headlines(summary: dict) -> list[dict]:
     """A scene's headline numbers on the front page, by rule from its record's checks, in the
     scene's order: one check per quantity (the first compared with a number of the paper, else the
     first), quantities compared with a number before those compared in words, at most
-    :data:`HEADLINES_PER_SCENE`."""
+    :data:`HEADLINES_PER_SCENE`. Readings of one quantity told apart only by a parenthesis (``exponent a
+    (orifice plane)``, ``exponent a (kernel node)``) count as one quantity."""
     first: dict[str, dict] = {}
     for c in summary.get("checks", []):
-        q = c.get("quantity", "")
+        q = c.get("quantity", "").split(" (")[0]
         if q not in first or (first[q].get("paper_range") is None and c.get("paper_range") is not None):
             first[q] = c
     return sorted(first.values(), key=lambda c: c.get("paper_range") is None)[:HEADLINES_PER_SCENE]

@@ -10,7 +10,8 @@ import pandas as pd
 from granflow.config import ConfigError
 from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, SweepAxis, finite
 
-from . import analysis, figures
+import granflow.scenes.chute.analysis as analysis
+import granflow.scenes.chute.figures as figures
 from .parameters import chute_parameters
 
 

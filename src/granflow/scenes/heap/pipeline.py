@@ -62,6 +62,7 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
     geometry = hp.HeapGeometry(**record["geometry"])
     species = record["species"]
     d_bar = mixture_mean_diameter(species)
+    d_large = max(float(sp["d"]) for sp in species)  # the largest species' diameter
     dx, dz_phi, dz_u = (knobs[k] * d_bar for k in ("bin_dx", "bin_dz_phi", "bin_dz_u"))
     z_lo = geometry.z_base_end - 2 * d_bar
     z_hi = record["parameters"]["z_top"]
@@ -96,7 +97,7 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
     for frame in frames:
         hp.accumulate_frame(acc, frame, moving, dt)
     # where the particles fed in the window's first half came to rest, and how far they flew over the heap
-    travel = hp.fed_travel(frames, x_lab, z_s, geometry, len(species), max(float(sp["d"]) for sp in species))
+    travel = hp.fed_travel(frames, x_lab, z_s, geometry, len(species), d_large)
     del frames
     profile = acc.conclude()
 
@@ -121,14 +122,12 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
     collapsed = hp.collapse(profile, per_x, moving.v_r_normal)
     if scalars.get("origin") == "local":
         scalars.update(hp.species_flux_above(profile, len(species)))
-        d_max = max(float(sp["d"]) for sp in species)   # a large particle's diameter above the surface
-        scalars.update(hp.species_flux_above(profile, len(species), d_max, "flux_above_d_max"))
+        scalars.update(hp.species_flux_above(profile, len(species), d_large, "flux_above_d_max"))
     if len(species) == 2 and np.isfinite(scalars.get("delta_mean", np.nan)):
-        deposit = hp.deposit_concentration(last.position, last.radius, last.type, fit, geometry,
-                                           float(t[0]), float(t[-1]), scalars["delta_mean"], dx)
-        d_large = max(float(sp["d"]) for sp in species)
         deposit_variants = hp.deposit_variants(last.position, last.radius, last.type, fit, geometry,
                                                float(t[0]), float(t[-1]), scalars["delta_mean"], dx, d_large=d_large)
+        central = (deposit_variants["variant"] == hp.DEPOSIT_CENTRAL) & (deposit_variants["slab"] == 0)
+        deposit = deposit_variants.loc[central, ["x_lab", "c_s", "n", "volume"]].reset_index(drop=True)
     else:
         deposit = pd.DataFrame(columns=["x_lab", "c_s", "n"])
         deposit_variants = pd.DataFrame(columns=["variant", "slab", "x_lab", "c_s", "n", "volume"])

@@ -57,6 +57,11 @@ def _overrides(rung: dict) -> list[str]:
     return [f"{k}={json.dumps(v) if not isinstance(v, str) else v}" for k, v in (rung.get("set") or {}).items()]
 
 
+def rung_sweep(ladder: dict, rung: dict) -> dict:
+    """The rung's sweep: the ladder's, with the values the rung's ``sweep:`` gives replacing its keys'."""
+    return {**(ladder.get("sweep") or {}), **(rung.get("sweep") or {})}
+
+
 def write_rung(ladder: dict, rung: dict, results: Path) -> tuple[Path, Path]:
     """The rung's scene file (the ladder's, changed) and its one-scene campaign; both validated."""
     out = rung_dir(results, ladder, rung["name"])
@@ -72,7 +77,7 @@ def write_rung(ladder: dict, rung: dict, results: Path) -> tuple[Path, Path]:
     campaign = {"rung": rung.get("rung", ladder["rung"]), "results_dir": str(out / "results"),
                 "scenes": {name: {"enabled": False} for name in registry.names() if name != ladder["scene"]}}
     campaign["scenes"][ladder["scene"]] = {"enabled": True, "scene_file": str(scene_file),
-                                           "sweep": {**(ladder.get("sweep") or {}), **(rung.get("sweep") or {})}}
+                                           "sweep": rung_sweep(ladder, rung)}
     campaign_file = out / "campaign.yaml"
     text = yaml.safe_dump(campaign, sort_keys=False)
     if not campaign_file.exists() or campaign_file.read_text() != text:
@@ -182,7 +187,7 @@ def table(ladder: dict, results: Path) -> pd.DataFrame:
             checks, cases = committed_checks(ladder)
             state = "run (the committed record)"
         cpu = sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"]))
-        expected = math.prod(len(v) for v in {**(ladder.get("sweep") or {}), **(rung.get("sweep") or {})}.values())
+        expected = math.prod(len(v) for v in rung_sweep(ladder, rung).values())
         if checks and state == "run" and len(cases) < expected:
             rows.append({"rung": rung["name"], "knob": rung["knob"], "cases": len(cases), "cpu_hours": cpu,
                          "state": f"incomplete: {len(cases)} of {expected} cases analysed"})

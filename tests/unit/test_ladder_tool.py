@@ -62,7 +62,7 @@ def test_the_base_falls_back_to_the_committed_record():
 
 def test_a_rung_may_change_one_sweep_value_and_a_refused_rung_is_one_line(tmp_path, capsys, monkeypatch):
     ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "heap.yaml")
-    rung = next(r for r in ladder["rungs"] if r["name"] == "mdot10")
+    rung = next(r for r in ladder["rungs"] if r["name"] == "one_kn_mdot10")
     scene_file, campaign_file = ladder_tool.write_rung(ladder, rung, tmp_path)
     campaign = yaml.safe_load(campaign_file.read_text())
     assert campaign["scenes"]["heap"]["sweep"] == {"mixture": ["bi1-2"], "feed_rate": [0.01]}

@@ -487,7 +487,11 @@ def law_difference(rec: dict, d_ref: float, knobs: dict, lightest: dict) -> str:
     if law == "hooke/pair_time":
         return (f"The paper's law per type pair (hooke/pair_time; {walls}): e = {min(es):.3g} for every contact; "
                 f"t_c from {lightest['t_c'] * 1e3:.3g} ms to {max(c['t_c'] for c in rec['contacts']) * 1e3:.3g} ms "
-                "inside the species' size spread (the paper: t_c for every contact).")
+                "inside the species' size spread (the paper: t_c for every contact)."
+                + ("" if math.isclose(knobs["t_c"], PAPER_T_C) else
+                   f" Our t_c is {knobs['t_c'] * 1e3:g} ms against the paper's {PAPER_T_C * 1e3:g} ms (which the paper "
+                   "found alike to 0.1 ms): at 1 ms the 1 mm particles' soft wall contacts let particles through the "
+                   "walls at our feed (docs/contact-laws.md)."))
     return (f"One normal stiffness for every pair and wall (LAMMPS gran/hooke/history; {walls}), set so that the "
             f"reference pair (mean diameter {d_ref * 1e3:g} mm) has the paper's t_c = {knobs['t_c'] * 1e3:g} ms and "
             f"e; lighter pairs collide faster (the lightest, {lightest['name']}: t_c = {lightest['t_c'] * 1e3:.3g} ms) "

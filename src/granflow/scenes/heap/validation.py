@@ -493,11 +493,12 @@ def law_difference(rec: dict, d_ref: float, knobs: dict, lightest: dict) -> str:
                    "found alike to 0.1 ms): at 1 ms the 1 mm particles' soft wall contacts let particles through the "
                    "walls at our feed (docs/contact-laws.md)."))
     return (f"One normal stiffness for every pair and wall (LAMMPS gran/hooke/history; {walls}), set so that the "
-            f"reference pair (mean diameter {d_ref * 1e3:g} mm) has the paper's t_c = {knobs['t_c'] * 1e3:g} ms and "
+            f"reference pair (mean diameter {d_ref * 1e3:g} mm) has t_c = {knobs['t_c'] * 1e3:g} ms "
+            f"(the paper's: {PAPER_T_C * 1e3:g} ms) and "
             f"e; lighter pairs collide faster (the lightest, {lightest['name']}: t_c = {lightest['t_c'] * 1e3:.3g} ms) "
             f"and every contact has its own restitution: e from {min(es):.2f} to {max(es):.2f} over the listed "
             f"pairs and walls. The paper gives every pair and wall t_c = {PAPER_T_C * 1e3:g} ms and e = 0.8 "
-            "(k_n ∝ m_eff): that law (hooke/pair_time) loses 1 mm particles through the walls at this feed "
+            "(k_n ∝ m_eff): that law (hooke/pair_time) at 1 ms loses 1 mm particles through the walls at this feed "
             "(docs/contact-laws.md).")
 
 

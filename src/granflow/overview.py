@@ -19,11 +19,16 @@ scene, quantity, case, ours ± stat ± syst, the paper's value and the verdict i
 (:func:`short_verdict`); a scene's headlines are picked from its record's checks by
 :func:`headlines` (one a quantity, those compared with a number of the paper first, at most
 :data:`HEADLINES_PER_SCENE`), and every check, with its source, note and full verdict, stays in
-the validation section (the scene's ``checks.csv``); the page counts them. The rules here read
-only the records: they never name a scene.
+the validation section (the scene's ``checks.csv``); the page counts them. Where a scene of the
+campaign has a committed ladder (``validation/<scene>/ladder.csv``, ``tools/ladder.py record``: one
+setting at a time from the validation case toward the paper), :func:`ladder_section` shows its first
+headline at the validation case and at the rung closest to the paper, with both errors, the verdict and
+the rung's CPU-hours; its figure is in the validation section. The rules here read only the records and
+ladders: they never name a scene.
 """
 from __future__ import annotations
 
+import csv
 import json
 import math
 import re
@@ -160,8 +165,9 @@ def _table(title: str, header: list[str], rows: list[list[str]], widths: list[in
     return out + [""]
 
 
-def overview_rst(summaries: list[dict], rung: str) -> str:
-    """The front page from the scenes' records of one campaign at ``rung``."""
+def overview_rst(summaries: list[dict], rung: str, ladders: dict[str, Path] | None = None) -> str:
+    """The front page from the scenes' records of one campaign at ``rung``, and the committed ladders
+    (``ladders``: scene → its ``ladder.csv``) of its scenes."""
     cases = [(s["scene"], c) for s in summaries for c in s.get("cases", [])]
     hours = sum(c["cpu_hours"] for _, c in cases
                 if isinstance(c.get("cpu_hours"), (int, float)) and math.isfinite(c["cpu_hours"]))
@@ -209,6 +215,7 @@ def overview_rst(summaries: list[dict], rung: str) -> str:
                              "section (the scene's checks.csv)."), ""]
     for line in silent:
         lines += [line, ""]
+    lines += ladder_section(ladders or {})
     papers = [f"{s['scene']}: {s['paper']}" for s in summaries if s.get("paper")]
     if papers:
         lines += [rst_text("Papers: " + "; ".join(papers) + "."), ""]
@@ -217,15 +224,77 @@ def overview_rst(summaries: list[dict], rung: str) -> str:
     return "\n".join(lines)
 
 
+def _number(text) -> float:
+    """A ladder.csv cell as a float (nan when empty or not a number)."""
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def read_ladder(path: Path) -> list[dict]:
+    """The rows of a committed ladder (``validation/<scene>/ladder.csv``, written by ``tools/ladder.py
+    record``), its numbers as floats."""
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        for key in ("ours", "stat", "syst", "abs_rel_difference", "cpu_hours"):
+            r[key] = _number(r.get(key))
+    return rows
+
+
+def ladder_rows(scene: str, rows: list[dict]) -> tuple[list[list[str]], str]:
+    """A scene's ladder on the front page: its first quantity at the ladder's first rung (the validation
+    case) and at the rung closest to the paper, each ours ± stat ± syst with its verdict and the rung's
+    measured CPU-hours; and a sentence counting the rungs run and naming the costliest planned one."""
+    run = [r for r in rows if str(r.get("state", "")).startswith("run") and r.get("quantity")]
+    planned = [r for r in rows if str(r.get("state", "")).startswith("planned")]
+    if not run:
+        return [], ""
+    quantity = run[0]["quantity"]
+    mine = [r for r in run if r["quantity"] == quantity]
+    closest = min(mine, key=lambda r: r["abs_rel_difference"] if math.isfinite(r["abs_rel_difference"])
+                  else math.inf)
+    picked = [mine[0]] + ([closest] if closest is not mine[0] else [])
+    table = [[scene, cut(quantity, QUANTITY_CHARS), r["rung"],
+              format_with_errors(r["ours"], r["stat"], _finite_or_none(r["syst"])),
+              short_verdict(r.get("verdict")), _hours(r["cpu_hours"])] for r in picked]
+    rungs = list(dict.fromkeys(r["rung"] for r in run))
+    costliest = max(planned, key=lambda r: r["cpu_hours"] if math.isfinite(r["cpu_hours"]) else -1, default=None)
+    words = f"{scene}: {len(rungs)} rung(s) run, {len(planned)} planned"
+    if costliest is not None:
+        words += f"; the costliest planned, {costliest['rung']}, {costliest['cpu_hours']:.3g} CPU-h (cost model)"
+    return table, words + "."
+
+
+def ladder_section(ladders: dict[str, Path]) -> list[str]:
+    """The front page's ladders: per scene with a committed ladder, :func:`ladder_rows`."""
+    rows, sentences = [], []
+    for scene, path in ladders.items():
+        table, words = ladder_rows(scene, read_ladder(path))
+        rows += table
+        sentences += [words] if words else []
+    if not rows:
+        return []
+    lines = ["Toward the papers, one knob at a time", "-" * 37, ""]
+    lines += _table("The committed ladders (validation/<scene>/ladder.csv): the first headline at the validation "
+                    "case and at the rung closest to the paper", ["scene", "quantity", "rung", "ours ± stat ± syst",
+                                                                  "verdict", "CPU-h"], rows)
+    lines += [rst_text(" ".join(sentences) + " Every rung and headline, and the figure of error against CPU-hours: "
+                       "the validation section (the scene's ladder)."), ""]
+    return lines
+
+
 def _finite_or_none(x):
     """A JSON number (a summary's ``syst``, null when not computed) as a float or None."""
     return float(x) if isinstance(x, (int, float)) and math.isfinite(x) else None
 
 
-def write_overview(summary_paths: list[Path], rung: str, out: Path) -> str:
-    """Write the front page ``out`` (reStructuredText) from the scenes' ``summary.json`` files."""
+def write_overview(summary_paths: list[Path], rung: str, out: Path, ladder_paths: list[Path] = ()) -> str:
+    """Write the front page ``out`` (reStructuredText) from the scenes' ``summary.json`` files and the
+    committed ladders ``ladder_paths`` (``<validation>/<scene>/ladder.csv``: the scene is its folder's name)."""
     summaries = [json.loads(Path(p).read_text()) for p in summary_paths]
-    text = overview_rst(summaries, rung)
+    text = overview_rst(summaries, rung, {Path(p).parent.name: Path(p) for p in ladder_paths})
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     Path(out).write_text(text)
     return text

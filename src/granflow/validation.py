@@ -553,7 +553,12 @@ def write_readme(folder: Path) -> str:
         text += ("\n## Ladders: one knob at a time toward the paper\n\n"
                  "Written by `tools/ladder.py record config/ladders/<scene>.yaml` from each rung's analysed cases "
                  "(the figure: `<scene>/figures/ladder.png`).\n\n")
-        text += "".join(p.read_text() for p in ladders)
+        for p in ladders:
+            text += p.read_text()
+            figure = p.parent / "figures" / "ladder.png"
+            if figure.exists():
+                text += (f"\n![{p.parent.name}: error against the paper against CPU-hours, one point per rung]"
+                         f"({figure.relative_to(folder).as_posix()})\n\n")
     text += "\n## What differs from the papers\n\n"
     for s in summaries:
         text += f"### {s['scene']}" + (f" ({s['paper']})" if s.get("paper") else "") + "\n\n"

@@ -1,7 +1,9 @@
 """The report's front page (granflow.overview): cases, statuses, CPU-hours, checks against the papers."""
 import json
+import re
 import subprocess
 import sys
+from pathlib import Path
 
 import jinja2
 from docutils.core import publish_parts
@@ -87,6 +89,38 @@ def test_the_default_campaign_builds_the_front_page(tmp_path):
     assert out.returncode == 0, out.stderr[-2000:] + out.stdout[-2000:]
     assert f"{tmp_path}/report/overview_demo.rst" in out.stdout
     assert "rule overview:" in out.stdout
+    # every committed ladder's figure goes into the report's validation section
+    for figure in sorted(Path(__file__).resolve().parents[2].glob("validation/*/figures/ladder.png")):
+        assert f"{tmp_path}/report/validation/{figure.parent.parent.name}_ladder.png" in out.stdout
+
+
+LADDER = """rung,knob,state,quantity,paper,ours,stat,syst,verdict,abs_rel_difference,rel_error,cases,particles,cpu_hours
+base,the validation case,run,u_max/u_slip,1.37–1.40,1.343,0.003,0.001,differs by -2.0 % (8 σ with stat and syst),0.0196,0.0023,1,"4,120",0.58
+base,the validation case,run,second quantity,1,0.5,0.1,,differs by -50 % (5 σ),0.5,0.1,1,"4,120",0.58
+B10,depth B 5 → 10 d_p,run,u_max/u_slip,1.37–1.40,1.356,0.004,0.001,differs by -1.0 % (3 σ with stat and syst),0.0100,0.0029,1,"8,240",1.26
+B15,depth B 5 → 15 d_p,run,u_max/u_slip,1.37–1.40,1.33,0.004,0.001,differs by -3.0 % (7 σ),0.0300,0.0029,1,"8,240",1.9
+B20,depth B 5 → 20 d_p,not run,,,,,,,,,,,
+B40,depth B 40,"planned (cost model, not run)",,,,,,,,,1,"32,959",25.2
+paper,the paper's channel,"planned (cost model, not run)",,,,,,,,,1,"99,000",230
+"""
+
+
+def test_the_page_shows_each_ladder_at_its_first_rung_and_closest_to_the_paper(tmp_path):
+    """The first headline of a committed ladder at the validation case and at the rung nearest the paper
+    (smallest |difference|), with both errors, its verdict and CPU-hours; the rungs counted."""
+    path = tmp_path / "alpha" / "ladder.csv"
+    path.parent.mkdir()
+    path.write_text(LADDER)
+    html = render(overview_rst(SUMMARIES, "demo", {"alpha": path}))
+    rows = re.findall(r"<tr><td>(.*?)</tr>", html.split("one knob at a time")[1], re.S)
+    cells = [re.findall(r"<td>(.*?)</td>", "<td>" + r) for r in rows]
+    assert [c[2] for c in cells] == ["base", "B10"]          # B15 is farther from the paper than B10
+    assert cells[0][3:] == ["1.3430 ± 0.0030 ± 0.0010", "differs by -2.0 % (8 σ)", "0.58"]
+    assert cells[1][3:] == ["1.3560 ± 0.0040 ± 0.0010", "differs by -1.0 % (3 σ)", "1.26"]
+    assert "second quantity" not in html                     # one headline a scene: the ladder's first
+    assert "alpha: 3 rung(s) run, 2 planned; the costliest planned, paper, 230 CPU-h (cost model)." in html
+    # without ladders the page has no such section
+    assert "one knob at a time" not in overview_rst(SUMMARIES, "demo")
 
 
 def test_page_starts_at_its_top_in_snakemakes_report():

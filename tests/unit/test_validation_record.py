@@ -103,6 +103,11 @@ def test_record_and_readme(tmp_path):
     (out / "ladder.md").write_text("### toy: ladder toward the paper\n\n| rung | knob |\n")
     text = validation.write_readme(tmp_path / "validation")
     assert "## Ladders: one knob at a time toward the paper" in text and "### toy: ladder toward" in text
+    assert "](toy/figures/ladder.png)" not in text                  # no figure, no image link
+    # the ladder's figure, where there is one, is shown under its table (a path relative to the README)
+    (out / "figures" / "ladder.png").write_bytes(b"\x89PNG fake")
+    text = validation.write_readme(tmp_path / "validation")
+    assert "| rung | knob |\n\n![toy: error against the paper against CPU-hours, one point per rung](toy/figures/ladder.png)" in text
     assert "| toy | ratio | 1.37-1.40 (Fig. 5c) | 1.210 ± 0.010 | x~1 |" in text
     assert "differs by -11.7 %" in text and "thin box: B = 5 instead of 40" in text
     assert "| toy | x~2 | steady | 1000 | 2.00 % | 2.00 |" in text

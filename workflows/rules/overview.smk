@@ -9,6 +9,12 @@ def overview_summaries():
     return [f"{VALIDATION_DIR}/{name}/summary.json" for name in SCENES if scene_cases(name)]
 
 
+def overview_ladders():
+    """The committed ladders (validation/<scene>/ladder.csv, tools/ladder.py record) of the campaign's scenes."""
+    found = (Path(workflow.basedir, "validation", name, "ladder.csv") for name in SCENES if scene_cases(name))
+    return [str(p) for p in found if p.exists()]
+
+
 def overview_targets():
     return [OVERVIEW] if overview_summaries() else []
 
@@ -22,6 +28,7 @@ rule overview:
     """The front page of the report (reStructuredText, rendered by `snakemake --report` first)."""
     input:
         summaries=overview_summaries(),
+        ladders=overview_ladders(),
     output:
         page=OVERVIEW,
     params:

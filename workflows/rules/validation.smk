@@ -67,11 +67,15 @@ rule validation_readme:
 
 def validation_report_targets():
     """The committed record's check tables, shown in the report of any other campaign (section
-    "validation"); the validation campaign's report shows the record it writes itself."""
+    "validation"; the validation campaign's report shows the record it writes itself), and the
+    committed ladders' figures (tools/ladder.py record: measured on other runs than any campaign's),
+    shown in every campaign's report."""
+    ladders = sorted(p.parent.parent.name for p in Path(workflow.basedir, "validation").glob("*/figures/ladder.png"))
+    targets = [f"{RESULTS}/report/validation/{name}_ladder.png" for name in ladders]
     if RUNG == "validation":
-        return []
+        return targets
     found = sorted(p.parent.name for p in Path(workflow.basedir, "validation").glob("*/checks.csv"))
-    return [f"{RESULTS}/report/validation/{name}.csv" for name in found]
+    return [f"{RESULTS}/report/validation/{name}.csv" for name in found] + targets
 
 
 def committed_checks(wildcards):
@@ -92,3 +96,23 @@ rule validation_report:
         RESULTS + f"/benchmarks/{RUNG}/validation_report_{{recorded}}.tsv"
     shell:
         "cp {input.checks} {output.checks}"
+
+
+def committed_ladder(wildcards):
+    """A committed ladder's figure, in the checkout (whatever the working directory)."""
+    return str(Path(workflow.basedir, "validation", wildcards.recorded, "figures", "ladder.png"))
+
+
+rule validation_ladder_report:
+    """Copy a committed ladder's figure (error against the paper vs CPU-hours, one point per rung) into the report."""
+    input:
+        figure=committed_ladder,
+    output:
+        figure=report(RESULTS + "/report/validation/{recorded}_ladder.png", caption="../report/ladder.rst",
+                      category="validation", subcategory="{recorded}"),
+    wildcard_constraints:
+        recorded=r"[a-z_]+",
+    benchmark:
+        RESULTS + f"/benchmarks/{RUNG}/validation_ladder_report_{{recorded}}.tsv"
+    shell:
+        "cp {input.figure} {output.figure}"

@@ -10,5 +10,5 @@ report_plainly()
 for summary in snakemake.input.summaries:  # write_overview reads them itself
     read_json(summary, keys=("scene",))
 text = write_overview([Path(p) for p in snakemake.input.summaries], snakemake.params.rung,
-                      Path(snakemake.output.page))
+                      Path(snakemake.output.page), [Path(p) for p in snakemake.input.ladders])
 print(text, file=sys.stderr)

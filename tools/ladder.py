@@ -5,7 +5,10 @@
 
 A ladder file (``config/ladders/<scene>.yaml``) names a scene, its rung, a sweep and a list of
 rungs, each a set of scene-file changes (``set:``, dotted keys as ``--set``) or of sweep values
-(``sweep:``, replacing the ladder's for that key) with the knob it turns in words; ``planned:`` rungs are only priced. ``prepare`` writes, per rung, the changed
+(``sweep:``, replacing the ladder's for that key) with the knob it turns in words; ``planned:`` rungs are only priced.
+A rung with ``replicate: true`` runs the first rung's cases again with another random seed and nothing else:
+the record reads it as the first rung's second sample (:func:`scatter_lines`), the run-to-run scatter each
+other rung's shift is set beside. ``prepare`` writes, per rung, the changed
 scene file (validated by the scene's schema and pre-run checks exactly as a campaign's) and a
 one-scene campaign under ``<results>/<scene>/<rung>/``, prices it with the cost model
 (``granflow plan``) and prints the Snakemake command that runs it (every run resumes from its
@@ -265,7 +268,40 @@ def markdown(df: pd.DataFrame, ladder: dict) -> str:
         where = "" if r["state"] == "run" else f" ({r['state'][5:-1]})"
         text += (f"| {r['rung']} | {r['knob']}{where} | {r['quantity']} | {r['ours']:.3g}{stat}{syst} | {r['paper']} | "
                  f"{r['verdict']} | {r['cpu_hours']:.2f} |\n")
-    return text + "\n"
+    return text + "\n" + scatter_lines(df, ladder)
+
+
+def scatter_lines(df: pd.DataFrame, ladder: dict) -> str:
+    """What the ladder's replicate rungs say (a rung with ``replicate: true`` runs the first rung's cases again
+    with another random seed and nothing else): per headline, how far the two samples lie apart, and each
+    other rung's shift from the first rung beside that run-to-run scatter. Two samples differing by Δ put one
+    run's scatter near |Δ|/√2; a rung's shift no larger than |Δ| is not told apart from a reseed."""
+    replicas = [r["name"] for r in ladder["rungs"] if r.get("replicate")]
+    run = df[df["state"].astype(str).str.startswith("run")] if len(df) else df
+    if not replicas or not len(run):
+        return ""
+    first = ladder["rungs"][0]["name"]
+    lines = []
+    for q in dict.fromkeys(run["quantity"]):
+        sub = run[run["quantity"] == q].drop_duplicates("rung").set_index("rung")
+        if first not in sub.index:
+            continue
+        base = sub.loc[first, "ours"]
+        for rep in (r for r in replicas if r in sub.index):
+            spread = abs(sub.loc[rep, "ours"] - base)
+            if not math.isfinite(spread):
+                continue
+            shifts = [f"{name} {sub.loc[name, 'ours'] - base:+.3g}"
+                      + (f" ({abs(sub.loc[name, 'ours'] - base) / spread:.1f} × |Δ|)" if spread > 0 else "")
+                      for name in sub.index if name not in (first, *replicas) and math.isfinite(sub.loc[name, "ours"])]
+            lines.append(f"- {q}: {first} and its replicate {rep} (another seed, nothing else) differ by "
+                         f"Δ = {sub.loc[rep, 'ours'] - base:+.3g} (one run's scatter ≈ |Δ|/√2 = {spread / math.sqrt(2):.2g}, "
+                         f"against a quoted stat error of {sub.loc[first, 'stat']:.2g})"
+                         + ("; the other rungs' shifts from " + first + ": " + ", ".join(shifts) if shifts else "")
+                         + ". A shift no larger than |Δ| is not told apart from a reseed.")
+    if not lines:
+        return ""
+    return "Run-to-run scatter (replicate rungs):\n\n" + "\n".join(lines) + "\n\n"
 
 
 def cmd_record(args) -> int:

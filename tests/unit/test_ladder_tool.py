@@ -76,3 +76,25 @@ def test_a_rung_may_change_one_sweep_value_and_a_refused_rung_is_one_line(tmp_pa
     out = capsys.readouterr().out
     assert "# narrow120: 120 g/s, feed as it is [refused]:" in out and "feed_rate = 0.12" in out
     assert "Traceback" not in out
+
+
+def test_a_replicate_rung_sets_the_run_to_run_scatter_beside_each_rungs_shift():
+    """Two samples of the base (another seed, nothing else) differ by Δ; each rung's shift from the base is
+    said as a multiple of |Δ|; planned and unrun rungs are left out."""
+    import pandas as pd
+
+    ladder = {"scene": "toy", "rung": "validation", "rungs": [{"name": "base"}, {"name": "deep"},
+                                                             {"name": "seed2", "replicate": True}]}
+    nan = float("nan")
+    df = pd.DataFrame([
+        {"rung": "base", "knob": "b", "state": "run", "quantity": "ratio", "ours": 1.340, "stat": 0.003, "syst": nan},
+        {"rung": "deep", "knob": "d", "state": "run", "quantity": "ratio", "ours": 1.356, "stat": 0.004, "syst": nan},
+        {"rung": "seed2", "knob": "s", "state": "run", "quantity": "ratio", "ours": 1.348, "stat": 0.003, "syst": nan},
+        {"rung": "paper", "knob": "p", "state": "planned (cost model, not run)", "quantity": nan, "ours": nan,
+         "stat": nan, "syst": nan}]).assign(paper="1.37–1.40", verdict="differs", cpu_hours=1.0)
+    text = ladder_tool.scatter_lines(df, ladder)
+    assert "base and its replicate seed2 (another seed, nothing else) differ by Δ = +0.008" in text
+    assert f"|Δ|/√2 = {0.008 / math.sqrt(2):.2g}" in text and "quoted stat error of 0.003" in text
+    assert "deep +0.016 (2.0 × |Δ|)" in text and "paper" not in text
+    assert ladder_tool.scatter_lines(df, dict(ladder, rungs=ladder["rungs"][:2])) == ""   # no replicate, no lines
+    assert text in ladder_tool.markdown(df, ladder)

@@ -8,7 +8,8 @@ rungs, each a set of scene-file changes (``set:``, dotted keys as ``--set``) or 
 (``sweep:``, replacing the ladder's for that key) with the knob it turns in words; ``planned:`` rungs are only priced.
 A rung with ``replicate: true`` runs the first rung's cases again with another random seed and nothing else:
 the record reads it as the first rung's second sample (:func:`scatter_lines`), the run-to-run scatter each
-other rung's shift is set beside. ``prepare`` writes, per rung, the changed
+other rung's shift is set beside. A ``series:`` entry names rungs that turn one knob by steps and reads the
+straight line through them at chosen points, such as the paper's size (:func:`series_lines`). ``prepare`` writes, per rung, the changed
 scene file (validated by the scene's schema and pre-run checks exactly as a campaign's) and a
 one-scene campaign under ``<results>/<scene>/<rung>/``, prices it with the cost model
 (``granflow plan``) and prints the Snakemake command that runs it (every run resumes from its
@@ -208,6 +209,8 @@ def table(ladder: dict, results: Path) -> pd.DataFrame:
                          "paper": c.paper, "ours": c.ours, "stat": c.error, "syst": c.syst, "verdict": c.verdict,
                          "abs_rel_difference": abs(c.difference) if math.isfinite(c.difference) else np.nan,
                          "rel_error": _rel_error(c) if c.paper_range and math.isfinite(c.ours) else np.nan,
+                         "paper_lo": min(c.paper_range) if c.paper_range else np.nan,
+                         "paper_hi": max(c.paper_range) if c.paper_range else np.nan,
                          "cases": len(cases), "particles": ", ".join(sorted({f"{c['particles']:,}" for c in cases
                                                                              if c.get("particles")})),
                          "cpu_hours": cpu})
@@ -268,7 +271,7 @@ def markdown(df: pd.DataFrame, ladder: dict) -> str:
         where = "" if r["state"] == "run" else f" ({r['state'][5:-1]})"
         text += (f"| {r['rung']} | {r['knob']}{where} | {r['quantity']} | {r['ours']:.3g}{stat}{syst} | {r['paper']} | "
                  f"{r['verdict']} | {r['cpu_hours']:.2f} |\n")
-    return text + "\n" + scatter_lines(df, ladder)
+    return text + "\n" + scatter_lines(df, ladder) + series_lines(df, ladder)
 
 
 def scatter_lines(df: pd.DataFrame, ladder: dict) -> str:
@@ -302,6 +305,46 @@ def scatter_lines(df: pd.DataFrame, ladder: dict) -> str:
     if not lines:
         return ""
     return "Run-to-run scatter (replicate rungs):\n\n" + "\n".join(lines) + "\n\n"
+
+
+def series_lines(df: pd.DataFrame, ladder: dict) -> str:
+    """The ladder's ``series:``: rungs that turn one knob by steps (``points``: rung → x, e.g. 1/B), each headline
+    fitted as a straight line in x by weighted least squares (weights 1/(stat² + syst²)) and read at the points
+    ``at`` (label → x, e.g. the paper's size, or x = 0 for the infinite system) with the fit's error and the
+    scene's verdict there. Three rungs or more (a fit with a degree of freedom); the line is an assumed form."""
+    from granflow.validation import format_with_errors, verdict
+
+    run = df[df["state"].astype(str).str.startswith("run")] if len(df) else df
+    lines = []
+    for series in ladder.get("series") or []:
+        points = series["points"]
+        for q in (dict.fromkeys(run["quantity"]) if len(run) else []):
+            sub = run[(run["quantity"] == q) & run["rung"].isin(list(points))].drop_duplicates("rung")
+            sub = sub[np.isfinite(sub["ours"].astype(float))]
+            if len(sub) < 3:
+                continue
+            x = np.array([float(points[r]) for r in sub["rung"]])
+            y = sub["ours"].to_numpy(float)
+            err = np.hypot(sub["stat"].fillna(0).to_numpy(float), sub["syst"].fillna(0).to_numpy(float))
+            if not np.all(err > 0):
+                continue
+            design = np.vstack([np.ones_like(x), x]).T
+            cov = np.linalg.inv(design.T @ (design / err[:, None] ** 2))
+            coef = cov @ design.T @ (y / err ** 2)
+            chi2 = float((((y - design @ coef) / err) ** 2).sum()) / (len(x) - 2)
+            paper = (sub["paper_lo"].iloc[0], sub["paper_hi"].iloc[0]) if "paper_lo" in sub else (np.nan, np.nan)
+            reads = []
+            for label, x0 in series["at"].items():
+                v = np.array([1.0, float(x0)])
+                y0, e0 = float(v @ coef), float(np.sqrt(v @ cov @ v))
+                words = (verdict(y0, e0, paper)[0] if all(np.isfinite(paper)) else "no paper range")
+                reads.append(f"at {label} ({series['x']} = {float(x0):g}) {format_with_errors(y0, e0)}: {words}")
+            lines.append(f"- {q} along {series['knob']}, a straight line in {series['x']} through "
+                         f"{', '.join(sub['rung'])} (slope {coef[1]:+.3g} ± {np.sqrt(cov[1, 1]):.2g}, χ²/ν = {chi2:.2f}): "
+                         + "; ".join(reads) + ". The straight line is assumed, not measured: a trend, not a result.")
+    if not lines:
+        return ""
+    return "Series (rungs along one knob, extrapolated):\n\n" + "\n".join(lines) + "\n\n"
 
 
 def cmd_record(args) -> int:

@@ -98,3 +98,31 @@ def test_a_replicate_rung_sets_the_run_to_run_scatter_beside_each_rungs_shift():
     assert "deep +0.016 (2.0 × |Δ|)" in text and "paper" not in text
     assert ladder_tool.scatter_lines(df, dict(ladder, rungs=ladder["rungs"][:2])) == ""   # no replicate, no lines
     assert text in ladder_tool.markdown(df, ladder)
+
+
+def test_a_series_reads_the_straight_line_through_its_rungs_at_the_papers_size():
+    """Points on an exact line y = 1.37 − 0.1 x recover 1.37 at x = 0 (χ² 0) and its value at the paper's size;
+    the verdict is the scene's (inside the paper's range: within it)."""
+    import pandas as pd
+
+    ladder = {"rungs": [{"name": n} for n in ("b5", "b10", "b20")],
+              "series": [{"knob": "depth", "x": "1/B", "points": {"b5": 0.2, "b10": 0.1, "b20": 0.05},
+                          "at": {"paper": 0.025, "infinite": 0.0}}]}
+    df = pd.DataFrame([{"rung": r, "state": "run", "quantity": "ratio", "ours": 1.37 - 0.1 * x, "stat": 0.002,
+                        "syst": 0.001, "paper_lo": 1.37, "paper_hi": 1.40} for r, x in
+                       ladder["series"][0]["points"].items()])
+    text = ladder_tool.series_lines(df, ladder)
+    assert "through b5, b10, b20 (slope -0.1 ±" in text and "χ²/ν = 0.00)" in text
+    assert "at infinite (1/B = 0) 1.3700 ±" in text and "within the paper's range" in text
+    assert "at paper (1/B = 0.025) 1.3675 ±" in text
+    assert ladder_tool.series_lines(df[df["rung"] != "b20"], ladder) == ""    # two rungs: no fit with a dof
+
+
+def test_the_channel_series_points_are_its_rungs_depths(tmp_path):
+    """The x of each rung in the channel ladder's series is 1/B of that rung's own scene file."""
+    ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "channel.yaml")
+    rungs = {r["name"]: r for r in ladder["rungs"]}
+    (series,) = ladder["series"]
+    for name, x in series["points"].items():
+        scene_file, _ = ladder_tool.write_rung(ladder, rungs[name], tmp_path)
+        assert x == pytest.approx(1.0 / load_scene(scene_file)["rungs"]["validation"]["B"])

@@ -41,7 +41,7 @@ from granflow import registry  # noqa: E402
 from granflow.campaign import load_campaign  # noqa: E402
 from granflow.config import apply_overrides, load_scene, load_yaml  # noqa: E402
 from granflow.yamlio import ConfigError  # noqa: E402
-from granflow.validation import case_summary  # noqa: E402
+from granflow.validation import case_summary, format_with_errors  # noqa: E402
 
 
 def load_ladder(path: Path) -> dict:
@@ -266,10 +266,9 @@ def markdown(df: pd.DataFrame, ladder: dict) -> str:
             cpu = f"{r['cpu_hours']:.3g}" if math.isfinite(r["cpu_hours"]) else "–"
             text += f"| {r['rung']} | {r['knob']} | – | {r['state']} | | | {cpu} |\n"
             continue
-        syst = f" ± {r['syst']:.2g}" if math.isfinite(r["syst"]) else ""
-        stat = f" ± {r['stat']:.2g}" if math.isfinite(r["stat"]) else ""
+        ours = format_with_errors(r["ours"], r["stat"], r["syst"] if math.isfinite(r["syst"]) else None)
         where = "" if r["state"] == "run" else f" ({r['state'][5:-1]})"
-        text += (f"| {r['rung']} | {r['knob']}{where} | {r['quantity']} | {r['ours']:.3g}{stat}{syst} | {r['paper']} | "
+        text += (f"| {r['rung']} | {r['knob']}{where} | {r['quantity']} | {ours} | {r['paper']} | "
                  f"{r['verdict']} | {r['cpu_hours']:.2f} |\n")
     return text + "\n" + scatter_lines(df, ladder) + series_lines(df, ladder)
 
@@ -312,7 +311,7 @@ def series_lines(df: pd.DataFrame, ladder: dict) -> str:
     fitted as a straight line in x by weighted least squares (weights 1/(stat² + syst²)) and read at the points
     ``at`` (label → x, e.g. the paper's size, or x = 0 for the infinite system) with the fit's error and the
     scene's verdict there. Three rungs or more (a fit with a degree of freedom); the line is an assumed form."""
-    from granflow.validation import format_with_errors, verdict
+    from granflow.validation import verdict
 
     run = df[df["state"].astype(str).str.startswith("run")] if len(df) else df
     lines = []

@@ -56,6 +56,7 @@ RULE_PHASE = {
     "validation_record": "report",
     "validation_readme": "report",
     "validation_report": "report",
+    "validation_ladder_report": "report",
     "overview": "report",
 }
 #: the rule writing this table: not timed (it would have to time itself)

@@ -206,6 +206,7 @@ def table(ladder: dict, results: Path) -> pd.DataFrame:
             continue
         for c in checks:
             rows.append({"rung": rung["name"], "knob": rung["knob"], "state": state, "quantity": c.quantity,
+                         "replicate": bool(rung.get("replicate")),
                          "paper": c.paper, "ours": c.ours, "stat": c.error, "syst": c.syst, "verdict": c.verdict,
                          "abs_rel_difference": abs(c.difference) if math.isfinite(c.difference) else np.nan,
                          "rel_error": _rel_error(c) if c.paper_range and math.isfinite(c.ours) else np.nan,

@@ -245,7 +245,7 @@ def read_ladder(path: Path) -> list[dict]:
 
 def ladder_rows(scene: str, rows: list[dict]) -> tuple[list[list[str]], str]:
     """A scene's ladder on the front page: its first quantity at the ladder's first rung (the validation
-    case) and at the rung closest to the paper, each ours ± stat ± syst with its verdict and the rung's
+    case) and at the rung closest to the paper (a replicate rung, the first rung reseeded, is no step toward it), each ours ± stat ± syst with its verdict and the rung's
     measured CPU-hours; and a sentence counting the rungs run and naming the costliest planned one."""
     run = [r for r in rows if str(r.get("state", "")).startswith("run") and r.get("quantity")]
     planned = [r for r in rows if str(r.get("state", "")).startswith("planned")]
@@ -253,7 +253,8 @@ def ladder_rows(scene: str, rows: list[dict]) -> tuple[list[list[str]], str]:
         return [], ""
     quantity = run[0]["quantity"]
     mine = [r for r in run if r["quantity"] == quantity]
-    closest = min(mine, key=lambda r: r["abs_rel_difference"] if math.isfinite(r["abs_rel_difference"])
+    steps = [r for r in mine if str(r.get("replicate", "")).lower() != "true"] or mine   # a reseed is no step
+    closest = min(steps, key=lambda r: r["abs_rel_difference"] if math.isfinite(r["abs_rel_difference"])
                   else math.inf)
     picked = [mine[0]] + ([closest] if closest is not mine[0] else [])
     table = [[scene, cut(quantity, QUANTITY_CHARS), r["rung"],

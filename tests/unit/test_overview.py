@@ -94,12 +94,13 @@ def test_the_default_campaign_builds_the_front_page(tmp_path):
         assert f"{tmp_path}/report/validation/{figure.parent.parent.name}_ladder.png" in out.stdout
 
 
-LADDER = """rung,knob,state,quantity,paper,ours,stat,syst,verdict,abs_rel_difference,rel_error,cases,particles,cpu_hours
+LADDER = """rung,knob,state,quantity,paper,ours,stat,syst,verdict,abs_rel_difference,rel_error,cases,particles,cpu_hours,replicate
 base,the validation case,run,u_max/u_slip,1.37–1.40,1.343,0.003,0.001,differs by -2.0 % (8 σ with stat and syst),0.0196,0.0023,1,"4,120",0.58
 base,the validation case,run,second quantity,1,0.5,0.1,,differs by -50 % (5 σ),0.5,0.1,1,"4,120",0.58
 B10,depth B 5 → 10 d_p,run,u_max/u_slip,1.37–1.40,1.356,0.004,0.001,differs by -1.0 % (3 σ with stat and syst),0.0100,0.0029,1,"8,240",1.26
 B15,depth B 5 → 15 d_p,run,u_max/u_slip,1.37–1.40,1.33,0.004,0.001,differs by -3.0 % (7 σ),0.0300,0.0029,1,"8,240",1.9
 B20,depth B 5 → 20 d_p,not run,,,,,,,,,,,
+seed2,the base reseeded,run,u_max/u_slip,1.37–1.40,1.369,0.003,0.001,within error (0.3 σ),0.0007,0.0023,1,"4,120",0.6,True
 B40,depth B 40,"planned (cost model, not run)",,,,,,,,,1,"32,959",25.2
 paper,the paper's channel,"planned (cost model, not run)",,,,,,,,,1,"99,000",230
 """
@@ -114,11 +115,12 @@ def test_the_page_shows_each_ladder_at_its_first_rung_and_closest_to_the_paper(t
     html = render(overview_rst(SUMMARIES, "demo", {"alpha": path}))
     rows = re.findall(r"<tr><td>(.*?)</tr>", html.split("one knob at a time")[1], re.S)
     cells = [re.findall(r"<td>(.*?)</td>", "<td>" + r) for r in rows]
-    assert [c[2] for c in cells] == ["base", "B10"]          # B15 is farther from the paper than B10
+    # B15 is farther from the paper than B10; seed2, nearer, is the base reseeded: no step toward the paper
+    assert [c[2] for c in cells] == ["base", "B10"]
     assert cells[0][3:] == ["1.3430 ± 0.0030 ± 0.0010", "differs by -2.0 % (8 σ)", "0.58"]
     assert cells[1][3:] == ["1.3560 ± 0.0040 ± 0.0010", "differs by -1.0 % (3 σ)", "1.26"]
     assert "second quantity" not in html                     # one headline a scene: the ladder's first
-    assert "alpha: 3 rung(s) run, 2 planned; the costliest planned, paper, 230 CPU-h (cost model)." in html
+    assert "alpha: 4 rung(s) run, 2 planned; the costliest planned, paper, 230 CPU-h (cost model)." in html
     # without ladders the page has no such section
     assert "one knob at a time" not in overview_rst(SUMMARIES, "demo")
 

@@ -267,7 +267,7 @@ def markdown(df: pd.DataFrame, ladder: dict) -> str:
             cpu = f"{r['cpu_hours']:.3g}" if math.isfinite(r["cpu_hours"]) else "–"
             text += f"| {r['rung']} | {r['knob']} | – | {r['state']} | | | {cpu} |\n"
             continue
-        ours = format_with_errors(r["ours"], r["stat"], r["syst"] if math.isfinite(r["syst"]) else None)
+        ours = format_with_errors(r["ours"], r["stat"], r["syst"])
         where = "" if r["state"] == "run" else f" ({r['state'][5:-1]})"
         text += (f"| {r['rung']} | {r['knob']}{where} | {r['quantity']} | {ours} | {r['paper']} | "
                  f"{r['verdict']} | {r['cpu_hours']:.2f} |\n")
@@ -328,19 +328,17 @@ def series_lines(df: pd.DataFrame, ladder: dict) -> str:
             err = np.hypot(sub["stat"].fillna(0).to_numpy(float), sub["syst"].fillna(0).to_numpy(float))
             if not np.all(err > 0):
                 continue
-            design = np.vstack([np.ones_like(x), x]).T
-            cov = np.linalg.inv(design.T @ (design / err[:, None] ** 2))
-            coef = cov @ design.T @ (y / err ** 2)
-            chi2 = float((((y - design @ coef) / err) ** 2).sum()) / (len(x) - 2)
+            (slope, intercept), cov = np.polyfit(x, y, 1, w=1 / err, cov="unscaled")   # cov of the errors given
+            chi2 = float((((y - intercept - slope * x) / err) ** 2).sum()) / (len(x) - 2)
             paper = (sub["paper_lo"].iloc[0], sub["paper_hi"].iloc[0]) if "paper_lo" in sub else (np.nan, np.nan)
             reads = []
             for label, x0 in series["at"].items():
-                v = np.array([1.0, float(x0)])
-                y0, e0 = float(v @ coef), float(np.sqrt(v @ cov @ v))
+                v = np.array([float(x0), 1.0])                     # polyfit's order: slope, intercept
+                y0, e0 = float(slope * x0 + intercept), float(np.sqrt(v @ cov @ v))
                 words = (verdict(y0, e0, paper)[0] if all(np.isfinite(paper)) else "no paper range")
                 reads.append(f"at {label} ({series['x']} = {float(x0):g}) {format_with_errors(y0, e0)}: {words}")
             lines.append(f"- {q} along {series['knob']}, a straight line in {series['x']} through "
-                         f"{', '.join(sub['rung'])} (slope {coef[1]:+.3g} ± {np.sqrt(cov[1, 1]):.2g}, χ²/ν = {chi2:.2f}): "
+                         f"{', '.join(sub['rung'])} (slope {slope:+.3g} ± {np.sqrt(cov[0, 0]):.2g}, χ²/ν = {chi2:.2f}): "
                          + "; ".join(reads) + ". The straight line is assumed, not measured: a trend, not a result.")
     if not lines:
         return ""

@@ -21,6 +21,7 @@ import jsonschema
 import yaml
 
 from . import registry, resources
+from .scene_hooks import REPLICATE
 from .yamlio import (  # noqa: F401 (the loader's names, re-exported: granflow.config is where callers find them)
     MAX_DEPTH,
     MAX_DOCUMENT_BYTES,
@@ -306,8 +307,9 @@ def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str, limi
     """Every value of the sweep within the scene schema's bounds of its case key, every point feasible
     and within the size limits (:func:`check_size`); returns the points' estimates."""
     sc = registry.get(name)
-    axes = {a.key for a in sc.sweep}
     case_schema = load_schema(name)["properties"]["case"]["properties"]
+    # the scene's axes, and the seed of its replicates (REPLICATE) where its case has one
+    axes = {a.key for a in sc.sweep} | ({REPLICATE.key} & set(case_schema))
     for key, values in sweep.items():
         require(key in axes, f"{path}: unknown key scenes.{name}.sweep.{key} (value {values!r}); "
                             f"allowed keys here: {', '.join(sorted(axes))}")

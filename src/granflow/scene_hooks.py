@@ -5,6 +5,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from .declarations import SweepAxis
+
+#: the replicate level of a case directory, ``<case>/seed~<seed>``: every scene's ``case`` section has a
+#: ``seed``; a campaign that lists ``sweep.seed`` runs each of its points once per seed (written in full,
+#: as a name: a seed has up to 9 digits)
+REPLICATE = SweepAxis("seed", "seed", name=True)
+
 
 class StudyHooks:
     """The optional cost study (:meth:`observables` with the scene's ``knobs`` and ``headline``,
@@ -169,7 +176,9 @@ class CaseNames:
         str
             ``<label>~<value>`` per sweep axis, joined by ``/`` (:meth:`SweepAxis.to_dir`).
         """
-        return "/".join(f"{a.label}~{a.to_dir(point[a.key])}" for a in self.sweep)
+        rel = "/".join(f"{a.label}~{a.to_dir(point[a.key])}" for a in self.sweep)
+        # a replicate (the campaign's sweep lists seeds): the same case with another seed, one level deeper
+        return f"{rel}/{REPLICATE.label}~{REPLICATE.to_dir(point[REPLICATE.key])}" if REPLICATE.key in point else rel
 
     def case_from_dir(self, rel: str) -> dict:
         """Inverse of :meth:`case_dir`.
@@ -192,7 +201,10 @@ class CaseNames:
             When a part has no ``~``, or a number does not read as one.
         """
         parts = dict(p.split("~", 1) for p in rel.strip("/").split("/"))
-        return {a.key: a.from_dir(parts[a.label]) for a in self.sweep}
+        case = {a.key: a.from_dir(parts[a.label]) for a in self.sweep}
+        if REPLICATE.label in parts:
+            case[REPLICATE.key] = int(REPLICATE.from_dir(parts[REPLICATE.label]))
+        return case
 
     def sweep_points(self, scene: dict, sweep: dict, rung: str) -> list[dict]:
         """Every combination of the campaign's sweep lists (a missing list: the default case's value).
@@ -215,4 +227,6 @@ class CaseNames:
         for axis in self.sweep:
             values = sweep.get(axis.key) or [self.case_values(scene, rung)[axis.key]]
             points = [dict(p, **{axis.key: v}) for p in points for v in values]
-        return points
+        # replicates: every point once per seed the campaign lists (none listed: the scene file's seed, no level)
+        seeds = sweep.get(REPLICATE.key) or []
+        return [dict(p, **{REPLICATE.key: int(s)}) for p in points for s in seeds] if seeds else points

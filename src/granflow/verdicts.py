@@ -1,0 +1,74 @@
+"""How a number is judged against its paper: the verdict's words and the systematic error.
+
+:func:`verdict` compares ours with the paper's value or range in units of the combined error;
+:func:`systematic` makes the systematic error of a value from the same value measured other ways.
+:mod:`granflow.validation` uses both for every row of the record.
+"""
+from __future__ import annotations
+
+import math
+
+#: a difference within this many standard errors is called "within error"
+SIGMAS = 2.0
+
+def systematic(central: float, variants: dict, central_se: float = float("nan")) -> tuple[float, str]:
+    """``(systematic error, text)`` of a value measured one way, from the same value measured others.
+
+    Each variant is a value, or ``(value, standard error)`` when it is measured on a subset or a
+    superset of the same data (a shorter fit range, half the window): then, with ``central_se``
+    given, the part of its shift that the statistics of the data it adds or drops explain,
+    :math:`|\\sigma_v^2 - \\sigma^2|`, is taken out in quadrature (Barlow 2002, "Systematic errors:
+    facts and fictions"), :math:`\\sqrt{\\max(0, \\Delta^2 - |\\sigma_v^2 - \\sigma^2|)}`. The systematic
+    error is the largest remaining shift over the finite variants (NaN when there is none); the text
+    lists every variant with its value, e.g. ``slab ±0.25 r_b: 0.52; slab ±1 r_b: 0.55``.
+    """
+    shifts, parts = [], []
+    for name, v in variants.items():
+        value, se = (v if isinstance(v, tuple) else (v, float("nan")))
+        value = float(value)
+        parts.append(f"{name}: {value:.4g}")
+        if not (math.isfinite(value) and math.isfinite(float(central))):
+            continue
+        shift = abs(value - float(central))
+        if math.isfinite(float(se)) and math.isfinite(float(central_se)):
+            shift = math.sqrt(max(0.0, shift ** 2 - abs(float(se) ** 2 - float(central_se) ** 2)))
+            parts[-1] += f" (± {float(se):.2g}, beyond its statistics {shift:.2g})"
+        shifts.append(shift)
+    return (max(shifts) if shifts else float("nan")), "; ".join(parts)
+
+
+def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0,
+            syst: float = float("nan")) -> tuple[str, float]:
+    """``(words, relative difference)`` of ours against the paper's range.
+
+    The difference is measured to the nearest end of the range (0 inside it); the
+    combined error is ``sqrt(error^2 + syst^2 + paper_error^2)``. ``within the systematic
+    error`` when the difference is no larger than ``syst`` alone (the measurement choices
+    explain it); ``within error`` when it is within :data:`SIGMAS` combined errors;
+    ``differs by X % (Y sigma)`` otherwise; ``no statistical error`` when ours has none and
+    lies outside the range. Against a paper value of 0 the difference is absolute.
+    ``not measured`` when ours is NaN.
+    """
+    if not math.isfinite(ours):
+        return "not measured", float("nan")
+    if paper_range is None:
+        return "shape compared (see note)", float("nan")
+    lo, hi = sorted(float(v) for v in paper_range)
+    nearest = min(max(ours, lo), hi)
+    diff = ours - nearest
+    rel = diff / abs(nearest) if nearest else diff
+    stat = error if math.isfinite(error) else 0.0
+    sys_ = syst if math.isfinite(syst) else 0.0
+    sig = math.sqrt(stat ** 2 + sys_ ** 2 + paper_error ** 2)
+    if diff == 0.0:
+        return "within the paper's range" if hi > lo else "equal", 0.0
+    if sys_ > 0 and abs(diff) <= sys_:
+        return f"within the systematic error (the difference {abs(diff):.3g} ≤ syst {sys_:.3g})", rel
+    if sig > 0 and abs(diff) <= SIGMAS * sig:
+        return f"within error ({abs(diff) / sig:.1f} σ)", rel
+    words = f"differs by {100 * rel:+.1f} %" if nearest else f"differs by {diff:+.3g} (the paper's value is 0)"
+    if sig > 0:
+        words += f" ({abs(diff) / sig:.0f} σ{' with stat and syst' if sys_ > 0 else ''})"
+    elif not math.isfinite(error):
+        words += " (no statistical error)"
+    return words, rel

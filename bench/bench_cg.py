@@ -24,20 +24,21 @@ between the two paths; and, at the paper's w = r_b/2 for the pressures on nodes 
 kinetic pressure time-averaged (rho, u, pk) and by its eq. 7 (postproc.fluctuation: two deposits
 and an interpolation per frame). Figures are recorded, not asserted.
 
-Session 28 (bench/results/bench_cg_session28.txt, load average 1.1-1.3 with the ladder runs paused):
-at r_b/4 nodes with w = r_b/2 the time-averaged kinetic fields run at 0.81 / 1.33 M particle-frames/s
-on 1 / 2 threads (the issue's 1.5 M: 89 %), eq. 7 at 0.40 / 0.64 M (half: two deposits per frame).
+Measured 2026-11-25, commit 808686a (bench/results/bench_cg_2026-11-25.txt, load average 1.1-1.3
+with the ladder runs paused): at r_b/4 nodes with w = r_b/2 the time-averaged kinetic fields run at
+0.81 / 1.33 M particle-frames/s on 1 / 2 threads (the issue's 1.5 M: 89 %), eq. 7 at 0.40 / 0.64 M
+(half: two deposits per frame).
 
-Session 29: far from the axis the compiled path takes J from one polynomial in b per row of
-epsilon (postproc.rz_tables), evaluated for a grid row's nodes 4 at a time, instead of a table
-lookup per node; agreement with numpy 3e-9 (was 1e-8); tables built in ~12 ms per kernel (was
-3 ms). Against the code before, on the same frames, interleaved (bench/bench_cg_versions.py),
+From commit fbeb7f0 (2026-11-25): far from the axis the compiled path takes J from one polynomial in
+b per row of epsilon (postproc.rz_tables), evaluated for a grid row's nodes 4 at a time, instead of
+a table lookup per node; agreement with numpy 3e-9 (was 1e-8); tables built in ~12 ms per kernel
+(was 3 ms). Against the code before, on the same frames, interleaved (bench/bench_cg_versions.py),
 the machine busy with two LAMMPS runs (load average 1.8-3.5, so the second thread found no free
 core): after/before 1.35x single-threaded for the kinetic fields at r_b/4 (1.060 vs 0.786 M
-particle-frames/s, wall = CPU), 1.33x for eq. 7 (0.515 vs 0.387 M), by CPU time 1.34x for the
-bulk fields at r_b and 1.13-1.15x for the contacts (fewer nodes per item). Scaled from session
-28, about 1.09 / 1.7-1.8 M at r_b/4 on 1 / 2 threads on a quiet machine (the range: the
-serial part of a frame, ~15 % single-threaded, is unchanged), eq. 7 about 0.53 / 0.85 M.
+particle-frames/s, wall = CPU), 1.33x for eq. 7 (0.515 vs 0.387 M), by CPU time 1.34x for the bulk
+fields at r_b and 1.13-1.15x for the contacts (fewer nodes per item). Scaled from the 2026-11-25
+record (commit 808686a), about 1.09 / 1.7-1.8 M at r_b/4 on 1 / 2 threads on a quiet machine (the
+range: the serial part of a frame, ~15 % single-threaded, is unchanged), eq. 7 about 0.53 / 0.85 M.
 
 Each configuration's kernel is made once and shared by its passes (a new
 accumulator per pass), as in an analysis over many frames: the compiled path's
@@ -46,24 +47,22 @@ printed apart. The thread counts take turns pass by pass; "cores used" is the
 CPU time of the best pass over its wall time, which says whether the second
 thread found a free core.
 
-Measured 2026-11-24 (session 25), ``.venv/bin/python bench/bench_cg.py --frames 5``
-in a quiet window (load average 0.3 before, 0.9 after): nodes every 2 r_b,
-compiled 1.230 M particle-frames/s on 1 thread and 2.020 M on 2, numpy 0.038 M
-(32.6x, 53.5x); nodes every r_b (the silo's own spacing) 0.518 / 0.901 M, numpy
-0.008 M (61x, 107x); contacts 0.122 / 0.187 M contact-frames/s; agreement 1.1e-8
-(densities), 1.5e-8 (derived fields). The code before (git HEAD c9758b7), with
-this bench, right after: 1.082 / 1.955 M at 2 r_b, 0.396 / 0.736 M at r_b. With
-both cores busy with other work (load average 2.5-3.2): this code 1.241 / 1.310 M
-at 2 r_b; the code before, with its own bench, 0.962 / 0.551 M (its threads wait
-for each other at every frame). All runs: bench/results/bench_cg_session25.txt.
+Measured 2026-11-24, commit cf47081, ``.venv/bin/python bench/bench_cg.py --frames 5`` in a quiet
+window (load average 0.3 before, 0.9 after): nodes every 2 r_b, compiled 1.230 M particle-frames/s
+on 1 thread and 2.020 M on 2, numpy 0.038 M (32.6x, 53.5x); nodes every r_b (the silo's own spacing)
+0.518 / 0.901 M, numpy 0.008 M (61x, 107x); contacts 0.122 / 0.187 M contact-frames/s; agreement
+1.1e-8 (densities), 1.5e-8 (derived fields). The code before (git HEAD c9758b7), with this bench,
+right after: 1.082 / 1.955 M at 2 r_b, 0.396 / 0.736 M at r_b. With both cores busy with other work
+(load average 2.5-3.2): this code 1.241 / 1.310 M at 2 r_b; the code before, with its own bench,
+0.962 / 0.551 M (its threads wait for each other at every frame). The output of these runs was not
+kept in the repository.
 
-Repeated in session 26 on a quiet machine (load average 0.6), same command, one run
-of each code right after the other: this code 0.647 / 1.158 M at r_b, 1.443 /
-2.523 M at 2 r_b, numpy 0.012 / 0.057 M; the code before 0.569 / 1.047 M at r_b,
-1.470 / 2.621 M at 2 r_b. So the issue's 1.5 M particle-frames/s on 2 cores is met
-at nodes every 2 r_b (by the code before as well), not at the silo's own r_b
-spacing, where each particle reaches about 250 nodes with ~40 values each:
-bench/results/bench_cg_session26.txt and bench_cg_session26_before.txt.
+Repeated later on 2026-11-24 (still commit cf47081) on a quiet machine (load average 0.6), same
+command, one run of each code right after the other: this code 0.647 / 1.158 M at r_b,
+1.443 / 2.523 M at 2 r_b, numpy 0.012 / 0.057 M; the code before 0.569 / 1.047 M at r_b,
+1.470 / 2.621 M at 2 r_b. So the issue's 1.5 M particle-frames/s on 2 cores is met at nodes every
+2 r_b (by the code before as well), not at the silo's own r_b spacing, where each particle reaches
+about 250 nodes with ~40 values each: bench/results/bench_cg_2026-11-24.txt and bench_cg_2026-11-24_before.txt.
 """
 from __future__ import annotations
 

@@ -65,7 +65,7 @@ def test_delivered_feed_rate_matches_request(heap_campaign):
     # deck's `neighbor bin`; since the deck bins neighbours per species for size ratios >= 1.5
     # (faster; the same physics, a different but equally valid chaotic trajectory) the same case
     # gives -5.4 +- 4.8 % (-1.1 sigma), the mono heap -1.6 +- 2.5 %: the +3.2 sigma was that one
-    # trajectory's window, not a bias (it was an xfail until session 26).
+    # trajectory's window, not a bias (it was an xfail until commit 931c90a, 2026-11-24).
     "bi1.5-2.25",
 ])
 def test_mass_conservation_predicts_the_rise_velocity(heap_campaign, mixture):

@@ -232,7 +232,7 @@ def steady_time_estimate(scene: dict, rung: dict, case: dict, sp: list[dict], ge
 #: largest over smallest diameter from which the deck bins neighbours per species
 #: (``neighbor multi``, ``comm_modify mode multi``). bench/bench_decks.py on 2 ranks: the 1/2 mm
 #: validation heap (20.7k particles, ratio 2.1) ran 0.59 and 0.87 of the multi variant in two
-#: session-26 runs (3.0 against 5.1, 3.6 against 4.1 Matom-step/s); the mono 1.5 mm demo heap
+#: runs of 2026-11-24, commit 931c90a (3.0 against 5.1, 3.6 against 4.1 Matom-step/s); the mono 1.5 mm demo heap
 #: (ratio 1.2) the same either way (6.39 against 6.32).
 MULTI_NEIGHBOR_RATIO = 1.5
 

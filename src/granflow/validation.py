@@ -66,6 +66,13 @@ class Check:
         in ``variants`` (NaN when none was computed; :func:`systematic`).
     variants : str
         Each measurement choice and the value it gives, e.g. ``slab ±0.25 r_b: 0.52; ...``.
+    kind : str
+        ``comparison``, ``consistency`` or ``diagnostic`` (:data:`granflow.verdicts.KINDS`): only a
+        comparison is judged against the paper.
+    run_to_run : float
+        The replicates' scatter as a standard error of their mean (NaN for one replicate).
+    n_replicates : int
+        Independent runs (seeds) behind ``ours``.
     """
 
     quantity: str
@@ -80,6 +87,9 @@ class Check:
     note: str = ""
     syst: float = float("nan")
     variants: str = ""
+    kind: str = "comparison"
+    run_to_run: float = float("nan")
+    n_replicates: int = 1
     verdict: str = field(default="", init=False)
     difference: float = field(default=float("nan"), init=False)
 
@@ -87,8 +97,10 @@ class Check:
         self.ours = float(self.ours)
         self.error = float(self.error)
         self.syst = float(self.syst)
+        self.run_to_run = float(self.run_to_run)
+        self.n_replicates = int(self.n_replicates)
         self.verdict, self.difference = verdict(self.ours, self.error, self.paper_range, self.paper_error,
-                                                self.syst)
+                                                self.syst, self.kind, self.run_to_run, self.n_replicates)
 
 
 @dataclass

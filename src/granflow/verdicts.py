@@ -37,18 +37,47 @@ def systematic(central: float, variants: dict, central_se: float = float("nan"))
     return (max(shifts) if shifts else float("nan")), "; ".join(parts)
 
 
+#: the kinds of a check: only a ``comparison`` can fail against the paper
+KINDS = {
+    "comparison": "can fail against the paper",
+    "consistency": "forced by the quantity's definition or an exact identity of our own code: a test of the code, "
+                   "never a verdict against the paper",
+    "diagnostic": "a reading of a measurement choice: no verdict",
+}
+#: a comparison whose SIGMAS combined errors exceed this fraction of the paper's value cannot tell a
+#: difference of that size from none: ``not resolved``
+RESOLUTION = 0.25
+
+
+def combined_error(error: float, syst: float = float("nan"), paper_error: float = 0.0,
+                   run_to_run: float = float("nan")) -> float:
+    """stat ⊕ run-to-run ⊕ syst ⊕ the paper's own error (NaN parts count as 0)."""
+    parts = [x for x in (error, syst, paper_error, run_to_run) if x is not None and math.isfinite(x)]
+    return math.sqrt(sum(x * x for x in parts))
+
+
 def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0,
-            syst: float = float("nan")) -> tuple[str, float]:
+            syst: float = float("nan"), kind: str = "comparison", run_to_run: float = float("nan"),
+            n_replicates: int = 1) -> tuple[str, float]:
     """``(words, relative difference)`` of ours against the paper's range.
 
-    The difference is measured to the nearest end of the range (0 inside it); the
-    combined error is ``sqrt(error^2 + syst^2 + paper_error^2)``. ``within the systematic
-    error`` when the difference is no larger than ``syst`` alone (the measurement choices
-    explain it); ``within error`` when it is within :data:`SIGMAS` combined errors;
-    ``differs by X % (Y sigma)`` otherwise; ``no statistical error`` when ours has none and
-    lies outside the range. Against a paper value of 0 the difference is absolute.
+    Only a ``comparison`` (:data:`KINDS`) is judged: a ``consistency`` or ``diagnostic`` check says
+    what it is and carries no verdict. The difference is measured to the nearest end of the range
+    (0 inside it); the combined error is stat ⊕ run-to-run ⊕ syst ⊕ the paper's error
+    (:func:`combined_error`). ``within the systematic error`` when the difference is no larger than
+    ``syst`` alone (the measurement choices explain it); ``within error`` when it is within
+    :data:`SIGMAS` combined errors; ``not resolved (± x)`` instead of either when :data:`SIGMAS`
+    combined errors exceed :data:`RESOLUTION` of the paper's (non-zero) value: such an error could
+    not tell a 25 % difference from none. Outside :data:`SIGMAS` errors: ``differs by X % (Y σ)``
+    with at least two replicates (``n_replicates``), else ``one sample: off by X % (Y σ)``
+    (the run-to-run scatter is not counted: a replicate decides). ``no statistical error`` when ours
+    has none and lies outside the range. Against a paper value of 0 the difference is absolute.
     ``not measured`` when ours is NaN.
     """
+    if kind not in KINDS:
+        raise ValueError(f"check kind {kind!r}: allowed one of {', '.join(KINDS)}")
+    if kind != "comparison":
+        return f"{kind}: no verdict against the paper", float("nan")
     if not math.isfinite(ours):
         return "not measured", float("nan")
     if paper_range is None:
@@ -59,16 +88,25 @@ def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0,
     rel = diff / abs(nearest) if nearest else diff
     stat = error if math.isfinite(error) else 0.0
     sys_ = syst if math.isfinite(syst) else 0.0
-    sig = math.sqrt(stat ** 2 + sys_ ** 2 + paper_error ** 2)
+    sig = combined_error(error, syst, paper_error, run_to_run)
+    unresolved = nearest != 0 and SIGMAS * sig > RESOLUTION * abs(nearest)
+    if diff == 0.0 and hi > lo:
+        return "within the paper's range", 0.0
+    if unresolved and abs(diff) <= SIGMAS * sig:
+        return f"not resolved (± {sig:.2g}: {SIGMAS:g} errors exceed {RESOLUTION:.0%} of the paper's value)", rel
     if diff == 0.0:
-        return "within the paper's range" if hi > lo else "equal", 0.0
+        return "equal", 0.0
     if sys_ > 0 and abs(diff) <= sys_:
         return f"within the systematic error (the difference {abs(diff):.3g} ≤ syst {sys_:.3g})", rel
     if sig > 0 and abs(diff) <= SIGMAS * sig:
         return f"within error ({abs(diff) / sig:.1f} σ)", rel
-    words = f"differs by {100 * rel:+.1f} %" if nearest else f"differs by {diff:+.3g} (the paper's value is 0)"
+    size = f"{100 * rel:+.1f} %" if nearest else f"{diff:+.3g} (the paper's value is 0)"
+    words = f"differs by {size}" if n_replicates >= 2 else f"one sample: off by {size}"
     if sig > 0:
-        words += f" ({abs(diff) / sig:.0f} σ{' with stat and syst' if sys_ > 0 else ''})"
+        parts = [name for name, x in (("syst", sys_), ("run-to-run", run_to_run)) if math.isfinite(x) and x > 0]
+        words += f" ({abs(diff) / sig:.0f} σ{' with stat and ' + ' and '.join(parts) if parts else ''})"
     elif not math.isfinite(error):
         words += " (no statistical error)"
+    if n_replicates < 2:
+        words += "; 'differs' needs two replicates"
     return words, rel

@@ -112,7 +112,7 @@ def test_channel_ratio_inside_and_outside_the_papers_range(tmp_path, channel_err
     assert inside.error == 0.01 and "error: autocorrelation standard error" in inside.note
     outside = _by(result.checks, "W~20/phi~0.61", "u_max/u_slip")
     assert outside.difference == pytest.approx(1.21 / 1.37 - 1.0)     # -11.7 %
-    assert outside.verdict.startswith("differs by -11.7 %")
+    assert outside.verdict.startswith("one sample: off by -11.7 %")  # one replicate: no "differs"
     # the exponent: 2.95 +- 0.05 against eq. 3.1's 3 is 1 sigma
     exponent = _by(result.checks, "W~20/phi~0.6", "eq. 3.1 exponent")
     assert exponent.paper_range == (3.0, 3.0) and exponent.verdict == "within error (1.0 σ)"
@@ -137,7 +137,7 @@ def test_channel_plug_and_momentum_balance(tmp_path, channel_errors):
     # white noise of 5 over 200 intervals: se = 5/sqrt(200)/1000 (g >= 1 and close to 1)
     naive = 5.0 / math.sqrt(200) / WEIGHT
     assert naive * 0.8 < balance.error < naive * 2.0
-    assert balance.verdict.startswith("differs by +0.2 %")
+    assert balance.verdict.startswith("one sample: off by +0.2 %")
 
 
 def test_channel_profiles_are_small_and_scaled(tmp_path, channel_errors):
@@ -229,7 +229,7 @@ def test_chute_momentum_balance_checks(tmp_path, chute_errors):
     result = cuv.validation(tmp_path, {"theta~22": chute_case(tmp_path, "a", 22.0, ratio_over_tan=0.99)})
     ratio = _by(result.checks, "theta~22", "bulk -σ_xz/σ_zz / tan θ")
     assert ratio.ours == pytest.approx(0.99) and ratio.error == 0.004
-    assert ratio.verdict.startswith("differs by -1.0 %")            # 0.01 off is 2.5 sigma
+    assert ratio.verdict.startswith("one sample: off by -1.0 %")            # 0.01 off is 2.5 sigma
     weight = _by(result.checks, "theta~22", "σ_zz / weight above")
     # sigma_zz is 1.01 x the weight in every bulk bin, each with a 2 % error
     assert weight.ours == pytest.approx(0.01) and weight.error == pytest.approx(0.02)

@@ -15,26 +15,63 @@ def test_inside_the_range_is_within_whatever_the_error():
 
 
 def test_difference_is_measured_to_the_nearest_end_of_the_range():
-    words, diff = verdict(1.21, 0.01, (1.37, 1.40))
+    words, diff = verdict(1.21, 0.01, (1.37, 1.40), n_replicates=2)
     assert diff == pytest.approx(1.21 / 1.37 - 1)          # -11.7 %
     assert words.startswith("differs by -11.7 %") and "(16 σ)" in words
 
 
+def test_differs_needs_two_replicates():
+    words, diff = verdict(1.21, 0.01, (1.37, 1.40))
+    assert words.startswith("one sample: off by -11.7 % (16 σ)") and "two replicates" in words
+    assert "differs by" not in words and diff == pytest.approx(1.21 / 1.37 - 1)
+
+
+def test_run_to_run_scatter_enters_the_combined_error():
+    # 0.977 against 1: stat 0.005 alone gives 4.6 sigma; with the replicates' scatter 0.0095 it is 2.1
+    assert verdict(0.977, 0.005, (1.0, 1.0), n_replicates=3)[0].startswith("differs by -2.3 %")
+    words, _ = verdict(0.977, 0.005, (1.0, 1.0), run_to_run=0.0095, n_replicates=3)
+    assert words.startswith("differs by -2.3 % (2 σ with stat and run-to-run)")
+    assert verdict(0.987, 0.005, (1.0, 1.0), run_to_run=0.0055, n_replicates=3)[0] == "within error (1.7 σ)"
+
+
+def test_consistency_and_diagnostic_rows_carry_no_verdict():
+    for kind in ("consistency", "diagnostic"):
+        words, diff = verdict(5.0, 0.01, (1.0, 1.0), kind=kind, n_replicates=2)
+        assert words == f"{kind}: no verdict against the paper" and math.isnan(diff)
+        assert "differs" not in words and "within" not in words
+    with pytest.raises(ValueError, match="allowed one of comparison, consistency, diagnostic"):
+        verdict(1.0, 0.1, (1.0, 1.0), kind="verdict")
+
+
+def test_an_error_too_wide_to_see_a_quarter_is_not_resolved():
+    # W_r/W_f 2.3 +- 1.5 against 1: 2 errors (3.0) exceed 25 % of 1, "within error" would say nothing
+    words, _ = verdict(2.3, 1.5, (1.0, 1.0))
+    assert words.startswith("not resolved (± 1.5")
+    # 0.91 +- 0.15: 2 errors 0.30 > 0.25 of the value: not resolved either; 0.91 +- 0.1 is resolved
+    assert verdict(0.91, 0.15, (1.0, 1.0))[0].startswith("not resolved")
+    assert verdict(0.91, 0.1, (1.0, 1.0))[0] == "within error (0.9 σ)"
+    # the syst and the replicates' scatter count toward the width; against 0 nothing is relative
+    assert verdict(1.05, 0.05, (1.0, 1.0), syst=0.12)[0].startswith("not resolved")
+    assert verdict(0.05, 1.0, (0.0, 0.0))[0].startswith("within error")
+    # a difference beyond 2 errors still differs, however wide
+    assert verdict(9.0, 1.5, (1.0, 1.0), n_replicates=2)[0].startswith("differs by +800.0 %")
+
+
 def test_within_two_combined_errors_counts_the_papers_error_too():
     # 0.63 against 0.60 +- 0.02: 0.03 off; our 0.01 alone gives 3 sigma, combined sqrt(0.01^2+0.02^2) 1.3 sigma
-    assert verdict(0.63, 0.01, (0.60, 0.60))[0].startswith("differs")
+    assert verdict(0.63, 0.01, (0.60, 0.60), n_replicates=2)[0].startswith("differs")
     words, _ = verdict(0.63, 0.01, (0.60, 0.60), paper_error=0.02)
     assert words == "within error (1.3 σ)"
 
 
 def test_no_error_and_outside_says_so_and_shapes_are_words():
-    assert verdict(2.0, float("nan"), (1.0, 1.0))[0] == "differs by +100.0 % (no statistical error)"
+    assert verdict(2.0, float("nan"), (1.0, 1.0), n_replicates=2)[0] == "differs by +100.0 % (no statistical error)"
     assert verdict(2.0, 0.1, None)[0] == "shape compared (see note)"
     words, diff = verdict(float("nan"), 0.1, (1.0, 1.0))
     assert words == "not measured" and math.isnan(diff)
     assert verdict(float("nan"), 0.1, None)[0] == "not measured"
     # against 0 the difference is absolute, and one-sided ranges work
-    assert verdict(0.05, 0.01, (0.0, 0.0)) == ("differs by +0.05 (the paper's value is 0) (5 σ)", 0.05)
+    assert verdict(0.05, 0.01, (0.0, 0.0), n_replicates=2) == ("differs by +0.05 (the paper's value is 0) (5 σ)", 0.05)
     assert verdict(1.5, 0.2, (1.0, float("inf")))[0] == "within the paper's range"
 
 
@@ -48,15 +85,16 @@ def test_systematic_error_is_the_largest_shift_over_the_measurement_choices():
 
 def test_a_difference_the_measurement_choices_explain_is_not_called_n_sigma():
     # 1.30 against 0.5 with stat 0.1: 8 sigma; with a syst of 0.9 the choices alone cover it
-    assert verdict(1.30, 0.10, (0.5, 0.5))[0].startswith("differs by +160.0 % (8 σ)")
-    words, rel = verdict(1.30, 0.10, (0.5, 0.5), syst=0.9)
-    assert words.startswith("within the systematic error") and rel == pytest.approx(1.6)
-    # stat and syst in quadrature: 0.3 off, stat 0.1, syst 0.12 -> combined 0.156: 1.9 sigma
-    assert verdict(0.80, 0.10, (0.5, 0.5), syst=0.12)[0] == "within error (1.9 σ)"
+    assert verdict(1.30, 0.10, (0.5, 0.5), n_replicates=2)[0].startswith("differs by +160.0 % (8 σ)")
+    words, rel = verdict(0.55, 0.01, (0.5, 0.5), syst=0.06)
+    assert words.startswith("within the systematic error") and rel == pytest.approx(0.1)
+    # stat and syst in quadrature: 0.03 off, stat 0.01, syst 0.012 -> combined 0.0156: 1.9 sigma
+    assert verdict(0.53, 0.010, (0.5, 0.5), syst=0.012)[0] == "within error (1.9 σ)"
     # and when even both do not reach: the sigma says it counted both
-    assert verdict(1.30, 0.10, (0.5, 0.5), syst=0.2)[0] == "differs by +160.0 % (4 σ with stat and syst)"
+    assert verdict(1.30, 0.10, (0.5, 0.5), syst=0.2, n_replicates=2)[0] == "differs by +160.0 % (4 σ with stat and syst)"
+    # a syst as large as the effect: not a verdict of agreement
     check = Check("a", "1/2", "Fig. 5", 1.30, 0.10, paper_range=(0.5, 0.5), syst=0.9, variants="x: 1")
-    assert check.verdict.startswith("within the systematic error") and check.syst == 0.9
+    assert check.verdict.startswith("not resolved (± 0.91") and check.syst == 0.9
 
 
 def test_the_table_shows_stat_and_syst_and_old_records_without_syst():
@@ -85,7 +123,7 @@ def test_record_and_readme(tmp_path):
     figs.mkdir()
     (figs / "f1.png").write_bytes(b"\x89PNG fake")
     result = ValidationResult(
-        checks=[Check("ratio", "1.37-1.40", "Fig. 5c", 1.21, 0.01, case="x~1", paper_range=(1.37, 1.40)),
+        checks=[Check("ratio", "1.37-1.40", "Fig. 5c", 1.21, 0.01, case="x~1", paper_range=(1.37, 1.40), n_replicates=2),
                 Check("balance", "1 (exact)", "§2", 1.001, 0.002, case="x~2", paper_range=(1, 1))],
         profiles={"p": pd.DataFrame({"x": [0.0, 1.0], "u": [0.1, 0.2]})}, figures=["f1", "missing"],
         differences=["thin box: B = 5 instead of 40"])

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import provenance
+from . import provenance, replicates
 from .registry import finite
 from .verdicts import SIGMAS, systematic, verdict  # noqa: F401 (re-exported: the scenes import them from here)
 
@@ -137,7 +137,9 @@ def scene_validation(scene, scene_dir: Path, cases: dict[str, Path]) -> Validati
     declares none, a result without checks whose note says so (:data:`NO_VALIDATION`)."""
     if not scene.gives("validation"):
         return ValidationResult(checks=[], note=NO_VALIDATION)
-    return scene.validation(scene_dir, cases)
+    # each seed's cases judged as a campaign without replicates would be, then pooled check by check
+    groups = replicates.split(cases)
+    return replicates.pool([scene.validation(scene_dir, group) for group in groups.values()], list(groups))
 
 
 #: log lines worth keeping from each case (substrings; the first and last match of each)
@@ -236,6 +238,10 @@ def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs
     for name, data in kept.items():
         (out / name).write_bytes(data)
     cases = [dict(dir=rel, **case_summary(Path(path))) for rel, path in case_dirs.items()]
+    for c in cases:  # each run's seed, and every seed its case ran from (the replicates)
+        c["seed"] = replicates.seed_of(c["dir"]) or (c.get("case") or {}).get("seed")
+    for c in cases:
+        c["seeds"] = [o["seed"] for o in cases if replicates.base_of(o["dir"]) == replicates.base_of(c["dir"])]
     checks = [asdict(c) for c in result.checks]
     # the columns named: a scene without checks still gets the table's header
     pd.DataFrame(checks, columns=[f.name for f in fields(Check)]).to_csv(out / "checks.csv", index=False)

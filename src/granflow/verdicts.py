@@ -104,7 +104,9 @@ def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0,
     words = f"differs by {size}" if n_replicates >= 2 else f"one sample: off by {size}"
     if sig > 0:
         parts = [name for name, x in (("syst", sys_), ("run-to-run", run_to_run)) if math.isfinite(x) and x > 0]
-        words += f" ({abs(diff) / sig:.0f} σ{' with stat and ' + ' and '.join(parts) if parts else ''})"
+        counted = ["stat"] + parts
+        counted = ", ".join(counted[:-1]) + " and " + counted[-1] if parts else ""
+        words += f" ({abs(diff) / sig:.0f} σ{' with ' + counted if parts else ''})"
     elif not math.isfinite(error):
         words += " (no statistical error)"
     if n_replicates < 2:

@@ -54,7 +54,12 @@ def test_variants_of_a_prescribed_flow_agree_and_the_halves_are_subsets(tmp_path
     v = headline_variants(case, record, central)
     assert set(v) == set(HEADLINES)
     assert set(v["ratio"]) == {"bins 0.5 d_p", "bins 2 d_p", "u_max = centre bin", "u_max = mean over the plug",
-                               "window first half", "window second half"}
+                               "wall bin 1 d_p", "wall bin 2 d_p", "window first half", "window second half"}
+    # where the wall's speed is read, a known answer: centres lie on layers x = 0.5, 1.5, ... (± 0.05);
+    # a 1 d_p wall bin holds the first layer, a 2 d_p one the first two
+    assert v["ratio"]["wall bin 1 d_p"] == pytest.approx(speed(W / 2) / speed(0.5), rel=0.01)
+    assert v["ratio"]["wall bin 2 d_p"] == pytest.approx(speed(W / 2) / (0.5 * (speed(0.5) + speed(1.5))), rel=0.01)
+    assert v["ratio"]["wall bin 2 d_p"] < central.scales.ratio - 0.02   # the choice moves the ratio
     # the wall bin is the paper's in every variant: u_slip does not move, nor does u_max of a smooth profile
     for name in ("bins 0.5 d_p", "bins 2 d_p", "u_max = centre bin"):
         assert v["ratio"][name] == pytest.approx(central.scales.ratio, rel=0.01), name

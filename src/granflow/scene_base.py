@@ -57,6 +57,10 @@ class Scene(StudyHooks, CaseNames):
     time_unit: ClassVar[str] = "simulation units"
     #: how its particle snapshots look (None: the scene writes none, whatever its effects say)
     snapshot: ClassVar[SnapshotView | None] = None
+    #: the kind of each check of its validation that is not a ``comparison`` with the paper
+    #: (quantity -> ``consistency`` or ``diagnostic``, :data:`granflow.verdicts.KINDS`): applied to its
+    #: record by the generic layer, so a rewritten record and a re-judged one say the same
+    check_kinds: ClassVar[dict[str, str]] = {}
 
     # -- what it gives ------------------------------------------------------------------
     def gives(self, hook: str) -> bool:
@@ -493,6 +497,7 @@ DEFAULTED: dict[str, str] = {
     "sizes": "describe(), workload(), particle_count(), simulate_ranks(), analyse_threads()",
     "run policy": "flow_verdict(), after_segment(), stop_statuses, statuses: the generic steady-state test",
     "report": "table(), table_sort, table_caption (or captions.yaml), time_unit, cost_note()",
+    "record": "check_kinds: every check of validation() a comparison with the paper",
 }
 
 

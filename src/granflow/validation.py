@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 import math
 import shutil
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -139,7 +139,14 @@ def scene_validation(scene, scene_dir: Path, cases: dict[str, Path]) -> Validati
         return ValidationResult(checks=[], note=NO_VALIDATION)
     # each seed's cases judged as a campaign without replicates would be, then pooled check by check
     groups = replicates.split(cases)
-    return replicates.pool([scene.validation(scene_dir, group) for group in groups.values()], list(groups))
+    results = [with_kinds(scene.validation(scene_dir, group), scene.check_kinds) for group in groups.values()]
+    return replicates.pool(results, list(groups))
+
+
+def with_kinds(result: ValidationResult, kinds: dict[str, str]) -> ValidationResult:
+    """``result`` with each check of a quantity named in ``kinds`` of that kind (its verdict judged anew)."""
+    checks = [replace(c, kind=kinds[c.quantity]) if c.quantity in kinds else c for c in result.checks]
+    return replace(result, checks=checks)
 
 
 #: log lines worth keeping from each case (substrings; the first and last match of each)

@@ -27,6 +27,10 @@ class HeapScene(Scene):
     snapshot = SnapshotView(color="type", view=(90.0, -90.0), size=(900, 500), zoom=2.2, stages=("flow", "average"))
     summary = "quasi-2D bounded heap filled from one end, inclined base and end wall (Fan et al. 2013)"
     paper = "heap_fan2013.md"
+    #: δ is where u = 0.1 u_s, which forces A e^{-k} ≈ 0.1: A is k counted again; the q* exponent fitted over x
+    #: inside one case measures how δ thins toward the end wall, not the paper's pooling over feed rates
+    check_kinds = {"tail u/u_s = A e^{k z/δ}: prefactor A": "consistency",
+                   "δ/d̄ ∝ q*^a: exponent a": "diagnostic"}
     # directories carry the feed rate in g/s: mdot~33 for 0.033 kg/s
     sweep = (SweepAxis("mixture", "mix", name=True), SweepAxis("feed_rate", "mdot", scale=1000.0))
     # the figures of heap/figures.py (HEAP_FIGURES), with the paper figure each reproduces

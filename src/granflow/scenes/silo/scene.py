@@ -31,6 +31,13 @@ class SiloScene(Scene):
                             slab_y=0.08)
     summary = "3D flat-bottomed cylindrical silo discharging through a circular orifice (Rubio-Largo et al. 2016)"
     paper = "silo_rubiolargo2016.md"
+    #: a pure power law cannot return 1/2 over R = 3.8-7.7 mean diameters even where v² = 2γg(R − R0) holds,
+    #: and the kernel node is cut by the deletion plane: readings of measurement choices, no verdict; the
+    #: paper states no Beverloo C or k; h_c's other reading is not the paper's way
+    check_kinds = {"v_z(0) ∝ R^a: exponent a (orifice plane, no kernel)": "diagnostic",
+                   "v_z(0) ∝ R^a: exponent a (kernel node, w = 2 r_b)": "diagnostic",
+                   "h_c ∝ R^β: exponent β": "diagnostic",
+                   "Beverloo C": "diagnostic", "Beverloo k": "diagnostic"}
     sweep = (SweepAxis("R", "R"),)
     # the figures of silo/figures (SILO_FIGURES), with the paper figure each reproduces
     figures = {name: FigureSpec(draw, "Beverloo" if name == "fig13_beverloo" else name[3:5].lstrip("0"))

@@ -27,6 +27,11 @@ Write a new scene from granflow's skeleton, then check it against the scene cont
     granflow new-scene drum
     granflow check-scene drum
 
+Write a campaign of one scene (an overlay with every other scene disabled) and run it::
+
+    granflow campaign --only chute --out /tmp/chute_only.yaml
+    snakemake --cores 2 --configfile /tmp/chute_only.yaml
+
 Coarse-grain any LAMMPS dump (see ``granflow cg --help``)::
 
     granflow cg dump.bin --coords rz --axis 0.05,0.05 --width 0.002 --spacing 0.002 --out cg
@@ -44,7 +49,7 @@ from pathlib import Path
 
 from postproc import cg_cli
 
-from . import registry
+from . import one_scene, registry
 from .campaign import load_campaign
 from .config import (LIMIT_KEYS, PROJECT_ROOT, ConfigError, check_limits, check_rung, check_size, load_scene,
                      load_yaml)
@@ -345,6 +350,15 @@ def cmd_plan(args) -> int:
     return 0
 
 
+def cmd_campaign(args) -> int:
+    """A campaign of one scene: the overlay written and checked by :func:`granflow.one_scene.write_overlay`."""
+    done = one_scene.write_overlay(args.only, args.config, args.out, root=Path.cwd(), force=args.force)
+    print(f"wrote {args.out}: a campaign of {done.only} alone (rung {done.rung}, {done.cases} "
+          f"case{'s' * (done.cases != 1)}), disabled: {', '.join(done.disabled)}\nrun it (a target goes before "
+          f"--configfile):\n  {done.command}")
+    return EXIT_OK
+
+
 def cmd_cg(args) -> int:
     argv = getattr(args, "_argv", sys.argv[1:])
     return cg_cli.run(args, command=" ".join(["granflow", *map(shlex.quote, argv)]))
@@ -494,6 +508,15 @@ def build_parser() -> argparse.ArgumentParser:
                                                "scene (default: the working directory; for a PATH, the project "
                                                "it lies in)")
     p.set_defaults(func=cmd_check_scene)
+
+    p = sub.add_parser("campaign", help="write a campaign of one scene: an overlay disabling every other scene",
+                       description=one_scene.DESCRIPTION, epilog=one_scene.EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--only", required=True, metavar="SCENE", help="the one scene to run (see `granflow scenes`)")
+    p.add_argument("--config", default="config/config.yaml",
+                   help="the campaign the overlay goes over (default config/config.yaml, Snakemake's own)")
+    p.add_argument("--out", required=True, metavar="FILE", help="the overlay to write (YAML)")
+    p.add_argument("--force", action="store_true", help="replace a file granflow campaign did not write")
+    p.set_defaults(func=cmd_campaign)
 
     p = sub.add_parser("cg", help="coarse-grain any LAMMPS dump into continuum fields (CSV, JSON, VTK)",
                        description=cg_cli.DESCRIPTION, epilog=cg_cli.EPILOG,

@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from . import provenance, replicates
+from .coverage import coverage_line
 from .registry import finite
 from .verdicts import SIGMAS, systematic, verdict  # noqa: F401 (re-exported: the scenes import them from here)
 
@@ -317,15 +318,18 @@ def format_with_errors(x: float, err: float = float("nan"), syst: float | None =
 
 def readme_table(summaries: list[dict]) -> str:
     """The one table of ``validation/README.md`` from the scenes' summaries."""
-    rows = ["| scene | quantity | paper (source) | ours ± stat (± syst) | case | rung, size | CPU-h | verdict |",
-            "|---|---|---|---|---|---|---|---|"]
+    rows = ["| scene | quantity | kind | paper (source) | ours ± stat (± syst) | run-to-run (seeds) | case | rung, size "
+            "| CPU-h | verdict |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
     for s in summaries:
         size = ", ".join(sorted({f"{c['particles']:,} particles" for c in s["cases"] if c.get("particles")}))
         for c in s["checks"]:
             unit = f" {c['unit']}" if c.get("unit") else ""
-            rows.append(f"| {s['scene']} | {c['quantity']} | {c['paper']}{unit} ({c['source']}) | "
-                        f"{format_with_errors(c['ours'], c['error'], c.get('syst'))}{unit} | {c['case']} | "
-                        f"{s['rung']}, {size} | {s['cpu_hours']:.2f} | {c['verdict']} |")
+            r2r, n = c.get("run_to_run"), c.get("n_replicates") or 1
+            spread = f"{r2r:.2g} ({n})" if isinstance(r2r, float) and math.isfinite(r2r) else f"– ({n})"
+            rows.append(f"| {s['scene']} | {c['quantity']} | {c.get('kind') or 'comparison'} | {c['paper']}{unit} "
+                        f"({c['source']}) | {format_with_errors(c['ours'], c['error'], c.get('syst'))}{unit} | "
+                        f"{spread} | {c['case']} | {s['rung']}, {size} | {s['cpu_hours']:.2f} | {c['verdict']} |")
     return "\n".join(rows) + "\n"
 
 
@@ -459,12 +463,23 @@ restart, so it can be split over sittings) and rewrites this folder. Do not edit
   number over the measurement choices it depends on (kernel width, slab, fit form, fit range,
   …), each recomputed from the same dumps; `<scene>/checks.csv` lists every variant
   (`variants`). A number without it has not had its measurement choices varied yet.
+- **run-to-run (seeds)**: a case run from several seeds (`<case>/seed~<seed>`, the campaign's
+  `sweep.seed`) is judged seed by seed and pooled: ours is the replicates' mean, stat the mean's
+  error, run-to-run their scatter s/√n (it holds the statistical scatter too, so the combined
+  error errs wide); `(1)`: one run, its scatter unknown.
+- **kind**: *comparison* (can fail against the paper), *consistency* (forced by the quantity's
+  definition or an exact identity of our code: a test of the code, never a verdict against the
+  paper), *diagnostic* (a reading of a measurement choice). Only comparisons get a verdict.
 - **verdict**: *within the systematic error* when the difference from the paper is no larger
   than the systematic error alone; *within error* when the paper's value (or the nearest end
-  of its range) lies within {sigmas:g} combined errors (stat, syst and the paper's, in
-  quadrature); otherwise *differs by* the relative amount and
-  the number of standard errors. A quantity the paper gives only as a shape is compared in
-  words (see the note in `<scene>/checks.csv`). Nothing was tuned to match a paper.
+  of its range) lies within {sigmas:g} combined errors (stat, run-to-run, syst and the paper's,
+  in quadrature); *not resolved (± x)* instead of either when {sigmas:g} combined errors exceed
+  25 % of the paper's value (such an error cannot tell a 25 % difference from none); otherwise
+  *differs by* the relative amount and the number of standard errors, which needs two
+  replicates: one run says *one sample: off by*. A quantity the paper gives only as a shape is
+  compared in words (see the note in `<scene>/checks.csv`). Nothing was tuned to match a paper.
+- **coverage** (under the table): how many of the results each paper states (its
+  `src/granflow/scenes/<scene>/paper_results.yaml`) a comparison of the record tests.
 - Each `<scene>/summary.json` carries the granflow commit and the LAMMPS version of its runs,
   each case's status, particles, largest overlap and CPU-hours; `<scene>/logs/` has the key
   LAMMPS log lines, `<scene>/profiles/` the profiles its figures show, `<scene>/figures/` the
@@ -479,7 +494,7 @@ def write_readme(folder: Path) -> str:
     summaries = [json.loads(p.read_text()) for p in sorted(folder.glob("*/summary.json"))]
     for s in summaries:
         for c in s["checks"]:
-            for key in ("ours", "error", "difference", "syst"):
+            for key in ("ours", "error", "difference", "syst", "run_to_run"):
                 c[key] = float("nan") if c.get(key) is None else c[key]
         for c in s["cases"]:
             c["cpu_hours"] = float("nan") if c.get("cpu_hours") is None else c["cpu_hours"]
@@ -487,6 +502,8 @@ def write_readme(folder: Path) -> str:
     text = README_HEAD.format(rung=", ".join(rungs), sigmas=SIGMAS)
     text += readme_table(summaries) + "\n"
     text += "".join(f"- {s['scene']}: {s['note']}\n" for s in summaries if s.get("note"))
+    # how much of each paper the record compares (granflow.coverage: the scene's paper_results.yaml)
+    text += "".join(f"- {s['scene']}: {line}\n" for s in summaries if (line := coverage_line(s["scene"], s["checks"])))
     text += "\n" if any(s.get("note") for s in summaries) else ""
     text += "## Cost\n\n| scene | cases | particles | CPU-hours | commit | LAMMPS |\n|---|---|---|---|---|---|\n"
     for s in summaries:

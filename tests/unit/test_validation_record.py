@@ -146,7 +146,7 @@ def test_record_and_readme(tmp_path):
     (out / "figures" / "ladder.png").write_bytes(b"\x89PNG fake")
     text = validation.write_readme(tmp_path / "validation")
     assert "| rung | knob |\n\n![toy: error against the paper against CPU-hours, one point per rung](toy/figures/ladder.png)" in text
-    assert "| toy | ratio | 1.37-1.40 (Fig. 5c) | 1.210 ± 0.010 | x~1 |" in text
+    assert "| toy | ratio | comparison | 1.37-1.40 (Fig. 5c) | 1.210 ± 0.010 | – (2) | x~1 |" in text
     assert "differs by -11.7 %" in text and "thin box: B = 5 instead of 40" in text
     assert "| toy | x~2 | steady | 1000 | 2.00 % | 2.00 |" in text
     # a rewrite of the record keeps the ladder (measured on other runs) and nothing else of the old folder

@@ -2,6 +2,7 @@
 
   python tools/ladder.py prepare config/ladders/silo.yaml --results /work/keep/ladders
   python tools/ladder.py record  config/ladders/silo.yaml --results /work/keep/ladders
+  python tools/ladder.py order   config/ladders/silo.yaml        # from_paper into the committed record
 
 A ladder file (``config/ladders/<scene>.yaml``) names a scene, its rung, a sweep and a list of
 rungs, each a set of scene-file changes (``set:``, dotted keys as ``--set``) or of sweep values
@@ -9,7 +10,11 @@ rungs, each a set of scene-file changes (``set:``, dotted keys as ``--set``) or 
 A rung with ``replicate: true`` runs the first rung's cases again with another random seed and nothing else:
 the record reads it as the first rung's second sample (:func:`scatter_lines`), the run-to-run scatter each
 other rung's shift is set beside. A ``series:`` entry names rungs that turn one knob by steps and reads the
-straight line through them at chosen points, such as the paper's size (:func:`series_lines`). ``prepare`` writes, per rung, the changed
+straight line through them at chosen points, such as the paper's size (:func:`series_lines`). Every rung, planned or
+run, declares ``from_paper``: its order from the paper's setup (0 is the paper's; a larger number is farther; equal
+numbers are as far; ``from_paper_order`` says in words how the ladder orders them), which ``ladder.csv`` carries for
+the report's front page to show the measured rung nearest the paper's setup, whatever its number; a replicate
+has its first rung's order (a reseed is no step). ``prepare`` writes, per rung, the changed
 scene file (validated by the scene's schema and pre-run checks exactly as a campaign's) and a
 one-scene campaign under ``<results>/<scene>/<rung>/``, prices it with the cost model
 (``granflow plan``) and prints the Snakemake command that runs it (every run resumes from its
@@ -18,7 +23,8 @@ restarts, so a rung may take several sittings). ``record`` runs the scene's own 
 cases, keeps the ladder's headline checks and writes ``validation/<scene>/ladder.csv``,
 ``ladder.md`` and ``figures/ladder.png``: |difference from the paper| (relative, with the
 combined stat ⊕ syst error) against the rung's measured CPU-hours, the planned rungs at their
-priced CPU-hours. Nothing here tunes anything: each rung is what the physics gives.
+priced CPU-hours. ``order`` carries the ladder file's ``from_paper`` into the committed ``ladder.csv`` and
+``ladder.md`` without the runs. Nothing here tunes anything: each rung is what the physics gives.
 """
 from __future__ import annotations
 
@@ -46,11 +52,41 @@ from granflow.validation import case_summary, format_with_errors  # noqa: E402
 
 def load_ladder(path: Path) -> dict:
     data = load_yaml(path)
-    for key in ("scene", "rung", "scene_file", "rungs", "headlines"):
+    for key in ("scene", "rung", "scene_file", "rungs", "headlines", "from_paper_order"):
         if key not in data:
             raise SystemExit(f"ladder: {path}: missing key {key!r}")
     registry.get(data["scene"])            # refuses an unknown scene by name
+    for rung in data["rungs"] + (data.get("planned") or []):
+        order = rung.get("from_paper")
+        if isinstance(order, bool) or not isinstance(order, (int, float)) or not order >= 0:
+            raise SystemExit(f"ladder: {path}: rung {rung.get('name')!r}: from_paper (its order from the paper's "
+                             f"setup, a number >= 0) is {order!r}")
+        if rung.get("replicate") and order != data["rungs"][0].get("from_paper"):
+            raise SystemExit(f"ladder: {path}: replicate rung {rung['name']!r} has from_paper {order}, its first "
+                             f"rung {data['rungs'][0]['from_paper']}: a reseed is no step toward the paper")
     return data
+
+
+def with_from_paper(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
+    """The ladder table with each rung's ``from_paper`` (its order from the paper's setup, from the ladder
+    file) as the column after ``knob``; an earlier ``from_paper`` column is replaced."""
+    order = {r["name"]: r["from_paper"] for r in ladder["rungs"] + (ladder.get("planned") or [])}
+    out = df.drop(columns=["from_paper"], errors="ignore")
+    out.insert(list(out.columns).index("knob") + 1 if "knob" in out else 0, "from_paper",
+               [order.get(name, np.nan) for name in out["rung"]])
+    return out
+
+
+def order_line(ladder: dict) -> str:
+    """The ladder's order of its rungs from the paper's setup, as ``ladder.md`` says it (nothing for a ladder
+    that declares none: :func:`load_ladder` refuses a file without it)."""
+    rungs = ladder["rungs"] + (ladder.get("planned") or [])
+    if "from_paper_order" not in ladder or any("from_paper" not in r for r in rungs):
+        return ""
+    rungs = sorted(rungs, key=lambda r: r["from_paper"])
+    return ("Order from the paper's setup (`from_paper`; 0 is the paper's, the report's front page shows the "
+            "measured rung nearest it): " + ", ".join(f"{r['name']} {r['from_paper']:g}" for r in rungs)
+            + f". {ladder['from_paper_order'][0].upper()}{ladder['from_paper_order'][1:]}.\n\n")
 
 
 def rung_dir(results: Path, ladder: dict, name: str) -> Path:
@@ -221,7 +257,7 @@ def table(ladder: dict, results: Path) -> pd.DataFrame:
         rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "planned (cost model, not run)",
                      "cases": len(p["rows"]), "particles": ", ".join(f"{r['particles']:,}" for r in p["rows"]),
                      "cpu_hours": p["total"]["cpu_hours"]})
-    return pd.DataFrame(rows)
+    return with_from_paper(pd.DataFrame(rows), ladder)
 
 
 def figure(df: pd.DataFrame, ladder: dict, path: Path) -> None:
@@ -260,7 +296,7 @@ def markdown(df: pd.DataFrame, ladder: dict) -> str:
     text = (f"### {ladder['scene']}: ladder toward the paper (rung {ladder['rung']}, sweep {ladder.get('sweep')})\n\n"
             "One knob per rung from the validation case (`config/ladders/" + f"{ladder['scene']}.yaml`, "
             "`tools/ladder.py`); each headline by the scene's own validation, ours ± stat ± syst; CPU-hours "
-            "measured (planned rungs: the cost model's upper bound).\n\n"
+            "measured (planned rungs: the cost model's upper bound).\n\n" + order_line(ladder) +
             "| rung | knob | quantity | ours ± stat ± syst | paper | verdict | CPU-h |\n|---|---|---|---|---|---|---|\n")
     for _, r in df.iterrows():
         if not str(r["state"]).startswith("run"):
@@ -357,16 +393,33 @@ def cmd_record(args) -> int:
     return 0
 
 
+def cmd_order(args) -> int:
+    """Carry the ladder file's ``from_paper`` into the committed record without the runs: the ``from_paper``
+    column of ``ladder.csv`` and the order line of ``ladder.md`` (the rest of both as recorded)."""
+    ladder = load_ladder(args.ladder)
+    out = ROOT / "validation" / ladder["scene"] if args.out is None else Path(args.out)
+    df = with_from_paper(pd.read_csv(out / "ladder.csv"), ladder)
+    df.to_csv(out / "ladder.csv", index=False, float_format="%.6g")
+    text = (out / "ladder.md").read_text()
+    head, sep, rest = text.partition("| rung | knob |")
+    paragraphs = [p for p in head.split("\n\n") if p and not p.startswith("Order from the paper's setup")]
+    (out / "ladder.md").write_text("\n\n".join(paragraphs) + "\n\n" + order_line(ladder) + sep + rest)
+    print(order_line(ladder), end="")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog=__doc__.split("\n\n", 1)[1])
     sub = parser.add_subparsers(dest="command", required=True)
     for name, func, helptext in (("prepare", cmd_prepare, "write the rungs' scene files and campaigns, price them"),
-                                 ("record", cmd_record, "the ladder's table and figure from the analysed rungs")):
+                                 ("record", cmd_record, "the ladder's table and figure from the analysed rungs"),
+                                 ("order", cmd_order, "the rungs' from_paper into the committed ladder.csv and .md")):
         p = sub.add_parser(name, help=helptext)
         p.add_argument("ladder", type=Path, help="ladder file, e.g. config/ladders/silo.yaml")
-        p.add_argument("--results", type=Path, required=True, help="where the rungs' runs live")
-        if name == "record":
+        if name != "order":
+            p.add_argument("--results", type=Path, required=True, help="where the rungs' runs live")
+        if name != "prepare":
             p.add_argument("--out", default=None, help="folder of the record (default validation/<scene>)")
         p.set_defaults(func=func)
     args = parser.parse_args(argv)

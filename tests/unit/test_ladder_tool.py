@@ -126,3 +126,90 @@ def test_the_channel_series_points_are_its_rungs_depths(tmp_path):
     for name, x in series["points"].items():
         scene_file, _ = ladder_tool.write_rung(ladder, rungs[name], tmp_path)
         assert x == pytest.approx(1.0 / load_scene(scene_file)["rungs"]["validation"]["B"])
+
+
+# ------------------------------------------------------------------ each rung's order from the paper's setup
+LADDER_FILES = sorted((ROOT / "config" / "ladders").glob("*.yaml"))
+
+
+def test_every_rung_declares_its_order_from_the_papers_setup_and_a_reseed_is_no_step():
+    assert LADDER_FILES
+    for path in LADDER_FILES:
+        ladder = ladder_tool.load_ladder(path)
+        rungs = ladder["rungs"] + ladder.get("planned", [])
+        assert all(isinstance(r["from_paper"], (int, float)) and r["from_paper"] >= 0 for r in rungs), path
+        assert [r["from_paper"] for r in rungs if r.get("rung") == "paper"] == [0], path   # the paper's setup is 0
+        first = ladder["rungs"][0]["from_paper"]
+        assert all(r["from_paper"] == first for r in rungs if r.get("replicate")), path
+        assert ladder["from_paper_order"].strip()
+
+
+def write_ladder(tmp_path, **change) -> Path:
+    data = yaml.safe_load((ROOT / "config" / "ladders" / "channel.yaml").read_text())
+    for name, order in change.items():
+        rung = next(r for r in data["rungs"] if r["name"] == name)
+        if order is None:
+            del rung["from_paper"]
+        else:
+            rung["from_paper"] = order
+    path = tmp_path / "channel.yaml"
+    path.write_text(yaml.safe_dump(data, allow_unicode=True))
+    return path
+
+
+def test_a_rung_without_an_order_or_a_reseed_given_a_step_is_refused(tmp_path):
+    with pytest.raises(SystemExit, match="rung 'B10': from_paper"):
+        ladder_tool.load_ladder(write_ladder(tmp_path, B10=None))
+    with pytest.raises(SystemExit, match="rung 'B10': from_paper"):
+        ladder_tool.load_ladder(write_ladder(tmp_path, B10=-1))
+    with pytest.raises(SystemExit, match="replicate rung 'seed2' has from_paper 1, its first rung 4"):
+        ladder_tool.load_ladder(write_ladder(tmp_path, seed2=1))
+
+
+def test_the_channels_order_follows_its_depth_toward_the_papers():
+    """The channel's rungs along its series are ordered by |1/B − 1/B_paper| (the series' x against the paper's)."""
+    ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "channel.yaml")
+    (series,) = ladder["series"]
+    paper_x = series["at"]["the paper's B = 40 d_p"]
+    order = {r["name"]: r["from_paper"] for r in ladder["rungs"]}
+    by_distance = sorted(series["points"], key=lambda name: abs(series["points"][name] - paper_x))
+    assert [order[name] for name in by_distance] == sorted(order[name] for name in by_distance)
+    assert len({order[name] for name in by_distance}) == len(by_distance)    # each step a step
+
+
+def test_the_committed_ladders_carry_their_files_order():
+    """validation/<scene>/ladder.csv has each rung's from_paper as its ladder file says, and ladder.md the order."""
+    import pandas as pd
+
+    for path in LADDER_FILES:
+        ladder = ladder_tool.load_ladder(path)
+        record = ROOT / "validation" / ladder["scene"]
+        df = pd.read_csv(record / "ladder.csv")
+        order = {r["name"]: r["from_paper"] for r in ladder["rungs"] + ladder.get("planned", [])}
+        assert list(df.columns[:3]) == ["rung", "knob", "from_paper"]
+        assert set(df["rung"]) == set(order), path
+        assert all(df["from_paper"] == df["rung"].map(order)), path
+        assert ladder_tool.order_line(ladder) in (record / "ladder.md").read_text()
+
+
+def test_order_carries_the_key_into_a_record_without_its_runs_and_changes_nothing_else(tmp_path):
+    import pandas as pd
+
+    ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "heap.yaml")
+    for name in ("ladder.csv", "ladder.md"):
+        (tmp_path / name).write_bytes((ROOT / "validation" / "heap" / name).read_bytes())
+    before = pd.read_csv(tmp_path / "ladder.csv", dtype=str, keep_default_na=False)
+    old = before.drop(columns="from_paper")
+    old.to_csv(tmp_path / "ladder.csv", index=False)              # a record of before the key
+    md = (tmp_path / "ladder.md").read_text()
+    (tmp_path / "ladder.md").write_text(md.replace(ladder_tool.order_line(ladder), ""))
+    args = type("Args", (), {"ladder": ROOT / "config" / "ladders" / "heap.yaml", "out": tmp_path})
+    assert ladder_tool.cmd_order(args) == 0
+    after = pd.read_csv(tmp_path / "ladder.csv", dtype=str, keep_default_na=False)
+    assert after.equals(before) and (tmp_path / "ladder.md").read_text() == md
+    assert ladder_tool.cmd_order(args) == 0                       # twice: the same files
+    assert (tmp_path / "ladder.md").read_text() == md
+    assert pd.read_csv(tmp_path / "ladder.csv", dtype=str, keep_default_na=False).equals(before)
+    # the table the record writes has the column in the same place
+    df = ladder_tool.with_from_paper(old.assign(ours=pd.to_numeric(old["ours"], errors="coerce")), ladder)
+    assert list(df.columns[:3]) == ["rung", "knob", "from_paper"] and df["from_paper"].iloc[0] == 3

@@ -15,16 +15,19 @@ Every case is one line: scene, case, its status with a reason of a few words
 its reason cut at a word boundary to :data:`SHORT_REASON` characters), particles and CPU-hours.
 The full reason stays in the scene's record and its table (``status_reason`` of
 ``table.csv``, the scene's section of the report). The headlines are one table, a line each:
-scene, quantity, case, ours ± stat ± syst, the paper's value and the verdict in a few words
-(:func:`short_verdict`); a scene's headlines are picked from its record's checks by
-:func:`headlines` (one a quantity, those compared with a number of the paper first, at most
+scene, quantity, the case it was measured on, ours ± stat ± syst, the paper's value and the verdict in
+a few words (:func:`short_verdict`); a scene's headlines are picked from its record's checks by
+:func:`headlines` (one a quantity, each from a case that measured it, never from one that could not:
+arrested, accelerating, jammed; those compared with a number of the paper first, at most
 :data:`HEADLINES_PER_SCENE`), and every check, with its source, note and full verdict, stays in
 the validation section (the scene's ``checks.csv``); the page counts them. Where a scene of the
 campaign has a committed ladder (``validation/<scene>/ladder.csv``, ``tools/ladder.py record``: one
 setting at a time from the validation case toward the paper), :func:`ladder_section` shows its first
-headline at the validation case and at the rung closest to the paper, with both errors, the verdict and
-the rung's CPU-hours; its figure is in the validation section. The rules here read only the records and
-ladders: they never name a scene.
+headline at the validation case and at the measured rung nearest the paper's setup (the order its
+ladder file declares, ``from_paper``), whatever its number, and, where another rung agrees better with
+the paper, that rung too, each row saying which it is, with both errors, the verdict and the rung's
+CPU-hours; its figure is in the validation section. The rules here read only the records and ladders:
+they never name a scene.
 """
 from __future__ import annotations
 
@@ -112,16 +115,30 @@ QUANTITY_CHARS = 26
 PAPER_CHARS = 22
 
 
+def measured(check: dict) -> bool:
+    """Whether a check holds a number of ours: a case that was not averaged (arrested, accelerating,
+    jammed, unstable...) leaves ``ours`` empty or NaN, its verdict ``not measured``."""
+    ours = check.get("ours")
+    return isinstance(ours, (int, float)) and not isinstance(ours, bool) and math.isfinite(ours)
+
+
 def headlines(summary: dict) -> list[dict]:
     """A scene's headline numbers on the front page, by rule from its record's checks, in the
-    scene's order: one check per quantity (the first compared with a number of the paper, else the
-    first), quantities compared with a number before those compared in words, at most
-    :data:`HEADLINES_PER_SCENE`. Readings of one quantity told apart only by a parenthesis (``exponent a
-    (orifice plane)``, ``exponent a (kernel node)``) count as one quantity."""
+    scene's order: one check per quantity, taken from a case that measured it (:func:`measured`; a
+    quantity no case measured is not a headline), the first compared with a number of the paper, then
+    the first from a steady case or the whole sweep, else the first; quantities compared with a number
+    before those compared in words, at most :data:`HEADLINES_PER_SCENE`. Readings of one quantity told
+    apart only by a parenthesis (``exponent a (orifice plane)``, ``exponent a (kernel node)``) count as
+    one quantity."""
+    status = {c.get("dir"): c.get("status") for c in summary.get("cases", [])}
+
+    def rank(c: dict) -> tuple[bool, bool]:      # False first: a number of the paper, a steady case
+        return c.get("paper_range") is None, status.get(c.get("case")) not in (None, STEADY)
+
     first: dict[str, dict] = {}
-    for c in summary.get("checks", []):
+    for c in filter(measured, summary.get("checks", [])):
         q = c.get("quantity", "").split(" (")[0]
-        if q not in first or (first[q].get("paper_range") is None and c.get("paper_range") is not None):
+        if q not in first or rank(c) < rank(first[q]):
             first[q] = c
     return sorted(first.values(), key=lambda c: c.get("paper_range") is None)[:HEADLINES_PER_SCENE]
 
@@ -192,9 +209,10 @@ def overview_rst(summaries: list[dict], rung: str, ladders: dict[str, Path] | No
     rows, counts, verdicts, silent = [], [], Counter(), []
     for s in summaries:
         checks = s.get("checks", [])
-        if not checks:
+        if not checks or not headlines(s):
             silent.append(rst_text(f"{s['scene']}: " + (s.get("note") or "no headline number could be "
                                                           "measured in this campaign.")))
+        if not checks:
             continue
         counts.append(f"{s['scene']} {len(checks)}")
         verdicts.update(verdict_kind(c.get("verdict")) for c in checks)
@@ -205,9 +223,10 @@ def overview_rst(summaries: list[dict], rung: str, ladders: dict[str, Path] | No
                          format_with_errors(c.get("ours"), c.get("error"), _finite_or_none(c.get("syst"))) + unit,
                          cut(f"{c.get('paper', '')}{unit}", PAPER_CHARS), short_verdict(c.get("verdict"))])
     if rows:
-        lines += _table(f"Rung {rung}; at most {HEADLINES_PER_SCENE} a scene, one a quantity, those with a number "
-                        "of the paper first", ["scene", "quantity", "case", "ours ± stat ± syst", "paper", "verdict"],
-                        rows)
+        lines += _table(f"Rung {rung}; at most {HEADLINES_PER_SCENE} a scene, one a quantity, each from a case that "
+                        "measured it, those with a number of the paper first",
+                        ["scene", "quantity", "case", "ours ± stat ± syst", "paper", "verdict"], rows)
+    if counts:
         n = sum(verdicts.values())
         lines += [rst_text(f"All {n} checks ({', '.join(counts)}): "
                            + ", ".join(f"{k} {kind}" for kind, k in verdicts.most_common())
@@ -238,33 +257,68 @@ def read_ladder(path: Path) -> list[dict]:
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     for r in rows:
-        for key in ("ours", "stat", "syst", "abs_rel_difference", "cpu_hours"):
+        for key in ("ours", "stat", "syst", "abs_rel_difference", "cpu_hours", "from_paper"):
             r[key] = _number(r.get(key))
     return rows
 
 
+#: what a ladder row on the front page is (:func:`ladder_picks`)
+VALIDATION_CASE = "validation case"
+NEAREST_SETUP = "nearest the paper's setup"
+BEST_AGREEMENT = "best agreement"
+
+
+def _finite_key(value: float) -> float:
+    return value if math.isfinite(value) else math.inf
+
+
+def ladder_picks(rows: list[dict]) -> list[tuple[dict, list[str]]]:
+    """The rungs of a ladder the front page shows, each with what it is, for the ladder's first quantity:
+    its first rung (:data:`VALIDATION_CASE`); the measured rung nearest the paper's setup by the order its
+    ladder file declares (``from_paper``, the smallest; the first of equals), whatever its number
+    (:data:`NEAREST_SETUP`); and the measured rung with the smallest |difference from the paper|
+    (:data:`BEST_AGREEMENT`). A replicate rung (the first rung reseeded) is no step and never picked; a
+    rung picked twice is one row with both labels. Without ``from_paper`` no rung is called nearest."""
+    run = [r for r in rows if str(r.get("state", "")).startswith("run") and r.get("quantity")]
+    if not run:
+        return []
+    mine = [r for r in run if r["quantity"] == run[0]["quantity"]]
+    steps = [r for r in mine if str(r.get("replicate", "")).lower() != "true" and math.isfinite(r["ours"])]
+    placed = [r for r in steps if math.isfinite(r.get("from_paper", math.nan))]
+    nearest = min(placed, key=lambda r: r["from_paper"], default=None)
+    best = min(steps, key=lambda r: _finite_key(r["abs_rel_difference"]), default=None)
+    picks: list[tuple[dict, list[str]]] = [(mine[0], [VALIDATION_CASE])]
+    for row, label in ((nearest, NEAREST_SETUP), (best, BEST_AGREEMENT)):
+        if row is None or (label == BEST_AGREEMENT and not math.isfinite(row["abs_rel_difference"])):
+            continue
+        same = [labels for r, labels in picks if r is row]
+        if same:
+            same[0].append(label)
+        else:
+            picks.append((row, [label]))
+    return picks
+
+
 def ladder_rows(scene: str, rows: list[dict]) -> tuple[list[list[str]], str]:
-    """A scene's ladder on the front page: its first quantity at the ladder's first rung (the validation
-    case) and at the rung closest to the paper (a replicate rung, the first rung reseeded, is no step toward it), each ours ± stat ± syst with its verdict and the rung's
+    """A scene's ladder on the front page (:func:`ladder_picks`): its first quantity at each picked rung,
+    what the rung is, its order from the paper's setup, ours ± stat ± syst, the verdict and the rung's
     measured CPU-hours; and a sentence counting the rungs run and naming the costliest planned one."""
+    picks = ladder_picks(rows)
+    if not picks:
+        return [], ""
     run = [r for r in rows if str(r.get("state", "")).startswith("run") and r.get("quantity")]
     planned = [r for r in rows if str(r.get("state", "")).startswith("planned")]
-    if not run:
-        return [], ""
-    quantity = run[0]["quantity"]
-    mine = [r for r in run if r["quantity"] == quantity]
-    steps = [r for r in mine if str(r.get("replicate", "")).lower() != "true"] or mine   # a reseed is no step
-    closest = min(steps, key=lambda r: r["abs_rel_difference"] if math.isfinite(r["abs_rel_difference"])
-                  else math.inf)
-    picked = [mine[0]] + ([closest] if closest is not mine[0] else [])
-    table = [[scene, cut(quantity, QUANTITY_CHARS), r["rung"],
+    table = [[scene, cut(r["quantity"], QUANTITY_CHARS), r["rung"], "; ".join(labels),
+              f"{r['from_paper']:g}" if math.isfinite(r.get("from_paper", math.nan)) else "–",
               format_with_errors(r["ours"], r["stat"], _finite_or_none(r["syst"])),
-              short_verdict(r.get("verdict")), _hours(r["cpu_hours"])] for r in picked]
+              short_verdict(r.get("verdict")), _hours(r["cpu_hours"])] for r, labels in picks]
     rungs = list(dict.fromkeys(r["rung"] for r in run))
     costliest = max(planned, key=lambda r: r["cpu_hours"] if math.isfinite(r["cpu_hours"]) else -1, default=None)
     words = f"{scene}: {len(rungs)} rung(s) run, {len(planned)} planned"
     if costliest is not None:
         words += f"; the costliest planned, {costliest['rung']}, {costliest['cpu_hours']:.3g} CPU-h (cost model)"
+    if not any(NEAREST_SETUP in labels for _, labels in picks):
+        words += "; its ladder declares no order from the paper's setup (from_paper), so no rung is called nearest"
     return table, words + "."
 
 
@@ -278,11 +332,13 @@ def ladder_section(ladders: dict[str, Path]) -> list[str]:
     if not rows:
         return []
     lines = ["Toward the papers, one knob at a time", "-" * 37, ""]
-    lines += _table("The committed ladders (validation/<scene>/ladder.csv): the first headline at the validation "
-                    "case and at the rung closest to the paper", ["scene", "quantity", "rung", "ours ± stat ± syst",
-                                                                  "verdict", "CPU-h"], rows)
-    lines += [rst_text(" ".join(sentences) + " Every rung and headline, and the figure of error against CPU-hours: "
-                       "the validation section (the scene's ladder)."), ""]
+    lines += _table("The committed ladders (validation/<scene>/ladder.csv), each at its first headline",
+                    ["scene", "quantity", "rung", "which", "from paper", "ours ± stat ± syst", "verdict", "CPU-h"], rows)
+    lines += [rst_text("Each ladder at its validation case, at the measured rung nearest the paper's setup whatever "
+                       "its number, and at the rung that agrees best where that is another; from paper: the rung's "
+                       "order from the paper's setup as its ladder file declares it (0 is the paper's; a reseed has "
+                       "its rung's). " + " ".join(sentences) + " Every rung and headline, and the figure of error "
+                       "against CPU-hours: the validation section (the scene's ladder)."), ""]
     return lines
 
 

@@ -1,6 +1,8 @@
 """The report's front page read at a glance (granflow.overview), built from the committed records
 (validation/<scene>/summary.json): one line per case with a reason of a few words, derived by rule."""
+import importlib.util
 import json
+import math
 import re
 from html.parser import HTMLParser
 from pathlib import Path
@@ -162,12 +164,13 @@ def test_verdicts_in_a_few_words():
     def short(*args, **kw):
         return overview.short_verdict(verdict(*args, **kw)[0])
 
-    assert short(1.343, 0.003, (1.37, 1.40), syst=0.001) == "differs by -2.0 % (9 σ)"
+    assert short(1.343, 0.003, (1.37, 1.40), syst=0.001) == "one sample: off by -2.0 % (9 σ)"
+    assert short(1.343, 0.003, (1.37, 1.40), syst=0.001, n_replicates=2) == "differs by -2.0 % (9 σ)"
     assert short(2.886, 0.029, (3.0, 3.0), syst=0.11) == "within error (1.0 σ)"
     assert short(0.628, 0.002, (0.63, 0.63), syst=0.0023) == "within the systematic error"
     assert short(0.59, 0.002, (0.58, 0.62)) == "within the paper's range"
     assert short(0.087, 0.001, None) == "shape compared"
-    assert short(-0.184, 0.047, (0.0, 0.0), syst=0.02) == "differs by -0.184 (4 σ)"
+    assert short(-0.184, 0.047, (0.0, 0.0), syst=0.02) == "one sample: off by -0.184 (4 σ)"
     assert short(float("nan"), 0.1, (1.0, 1.0)) == "not measured"
     assert overview.short_verdict(None) == "–"
     assert overview.verdict_kind("differs by -2.0 % (8 σ with stat and syst)") == "differs"
@@ -211,3 +214,122 @@ def test_the_cases_and_the_headlines_of_the_validation_campaign_make_one_short_p
     widest = max(len(cell) for t in (cases, heads) for row in t["rows"] for cell in row)
     assert widest <= len("no_steady_state: ") + overview.SHORT_REASON + 1, widest
     assert len(tables) == 2
+
+
+# ------------------------------------------------------------------ headlines from a case that measured them
+def chute_like_campaign():
+    """A sweep whose first case stopped (arrested) and last kept speeding up (accelerating): neither was
+    averaged, so their checks hold NaN and say "not measured"; the two between measured every quantity."""
+    nan = float("nan")
+    cases = [{"dir": "theta~18", "status": "arrested", "reason": "the bed stopped"},
+             {"dir": "theta~22", "status": "steady", "reason": "steady"},
+             {"dir": "theta~25", "status": "steady", "reason": "steady"},
+             {"dir": "theta~30", "status": "accelerating", "reason": "u_cm still rising"}]
+    checks = []
+    for case in cases:
+        value = 0.99 if case["status"] == "steady" else nan
+        verdict = "within error (0.5 σ)" if case["status"] == "steady" else "not measured"
+        checks += [check("stress ratio / tan θ", case=case["dir"], ours=value, verdict=verdict),
+                   check("σ_zz / weight above - 1", case=case["dir"], ours=value, verdict=verdict),
+                   check("Bagnold R²", case=case["dir"], ours=value, paper_range=None,
+                         verdict="shape compared" if case["status"] == "steady" else "not measured")]
+    return {"scene": "x", "cases": cases, "checks": checks}
+
+
+def test_a_campaign_with_an_arrested_case_shows_headlines_from_a_case_that_measured_them():
+    summary = chute_like_campaign()
+    picked = overview.headlines(summary)
+    assert [(c["quantity"], c["case"]) for c in picked] == [("stress ratio / tan θ", "theta~22"),
+                                                           ("σ_zz / weight above - 1", "theta~22"),
+                                                           ("Bagnold R²", "theta~22")]
+    html = html_of(overview_rst([summary], "validation"))
+    rows = headline_table(Tables(html).tables)["rows"][1:]
+    assert [row[2] for row in rows] == ["theta~22"] * 3          # each line says which case it shows
+    assert not any("not measured" in row[5] or row[3].startswith("–") for row in rows)
+    # a steady case first in the list wins over a later one; a measured reading of an unsteady case only
+    # stands in where no steady case measured the quantity
+    summary["cases"][1]["status"] = "unsteady"
+    assert {c["case"] for c in overview.headlines(summary)} == {"theta~25"}
+
+
+def test_a_scene_that_measured_nothing_has_no_headline_and_says_so():
+    summary = chute_like_campaign()
+    summary["checks"] = [c for c in summary["checks"] if c["case"] in ("theta~18", "theta~30")]
+    assert overview.headlines(summary) == []
+    html = html_of(overview_rst([summary], "validation"))
+    assert "x: no headline number could be measured in this campaign." in html
+    assert not [t for t in Tables(html).tables if t["rows"] and t["rows"][0][:2] == ["scene", "quantity"]]
+    assert "All 6 checks (x 6)" in html                           # still counted, with their verdicts
+
+
+def test_the_committed_records_headlines_were_measured(records):
+    for s in records:
+        status = {c["dir"]: c["status"] for c in s["cases"]}
+        for c in overview.headlines(s):
+            assert overview.measured(c), (s["scene"], c["quantity"])
+            assert status.get(c["case"], "steady") == "steady", (s["scene"], c["case"])
+
+
+# ------------------------------------------------------------------ the committed ladders
+LADDERS = sorted((ROOT / "validation").glob("*/ladder.csv"))
+
+
+def test_each_committed_ladder_shows_its_measured_rung_nearest_the_papers_setup():
+    """The row labelled nearest is the measured rung (not a reseed) with the smallest from_paper of its ladder
+    file, whatever its number; e.g. a rung one step farther that agrees better is labelled for what it is."""
+    import yaml
+
+    assert LADDERS
+    for path in LADDERS:
+        ladder = yaml.safe_load((ROOT / "config" / "ladders" / f"{path.parent.name}.yaml").read_text())
+        order = {r["name"]: r["from_paper"] for r in ladder["rungs"]}
+        rows = overview.read_ladder(path)
+        first = next(r["quantity"] for r in rows if r["state"].startswith("run") and r["quantity"])
+        measured = [r for r in rows if r["quantity"] == first and math.isfinite(r["ours"])
+                    and r.get("replicate", "False") != "True"]
+        nearest = min(measured, key=lambda r: order[r["rung"]])
+        picks = {r["rung"]: labels for r, labels in overview.ladder_picks(rows)}
+        assert overview.NEAREST_SETUP in picks[nearest["rung"]], path
+        assert [r for r, labels in picks.items() if overview.NEAREST_SETUP in labels] == [nearest["rung"]]
+        assert overview.VALIDATION_CASE in picks[ladder["rungs"][0]["name"]]
+        best = min(measured, key=lambda r: r["abs_rel_difference"])
+        if best["rung"] != nearest["rung"]:
+            assert overview.BEST_AGREEMENT in picks[best["rung"]] and order[best["rung"]] > order[nearest["rung"]]
+
+
+# ------------------------------------------------------------------ the README's picture of the page
+PICTURE = ROOT / "docs" / "figures" / "front_page.png"
+_spec = importlib.util.spec_from_file_location("front_page_picture", ROOT / "tools" / "front_page_picture.py")
+picture_tool = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(picture_tool)
+#: a number as the page prints it: 26.76, -0.028, 1.12e+03, 27,727
+NUMBER = re.compile(r"[-+]?\d[\d,]*(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+def numbers(page: str) -> list[str]:
+    """The numbers of a front page (reStructuredText), its style block left out, in the page's order."""
+    return NUMBER.findall(page.split("</style>", 1)[-1])
+
+
+def test_the_readmes_picture_shows_the_numbers_of_the_record(tmp_path):
+    """The picture carries the page it shows (tools/front_page_picture.py writes both): its numbers are the
+    page's built now from validation/. If this fails, the record or the page changed: run
+    `python tools/front_page_picture.py` and commit docs/figures/front_page.png."""
+    assert "docs/figures/front_page.png" in (ROOT / "README.md").read_text()
+    shown = picture_tool.page_text(PICTURE)
+    assert shown, "docs/figures/front_page.png carries no page text: make it with tools/front_page_picture.py"
+    now = picture_tool.front_page(tmp_path / "overview.rst")
+    assert numbers(shown) == numbers(now)
+    # and every headline number of the record, as the page formats it, is in the picture
+    for s in (json.loads(p.read_text()) for p in RECORDS):
+        for c in overview.headlines(s):
+            value = overview.format_with_errors(c["ours"], c.get("error"), overview._finite_or_none(c.get("syst")))
+            assert value in shown.replace("\\", ""), (s["scene"], c["quantity"], value)
+
+
+def test_the_pictures_stand_in_workflow_names_the_projects_rules():
+    rules = set(re.findall(r"^rule (\w+):", "\n".join(p.read_text() for p in (ROOT / "workflows" / "rules")
+                                                       .glob("*.smk")), re.M))
+    assert set(picture_tool.STAND_IN_RULES) <= rules
+    text = picture_tool.stand_in_snakefile(["alpha", "beta"])
+    assert 'report: "overview.rst"' in text and '"tables/beta.csv",' in text

@@ -1,4 +1,5 @@
 """The report's front page (granflow.overview): cases, statuses, CPU-hours, checks against the papers."""
+import html
 import json
 import re
 import subprocess
@@ -94,35 +95,73 @@ def test_the_default_campaign_builds_the_front_page(tmp_path):
         assert f"{tmp_path}/report/validation/{figure.parent.parent.name}_ladder.png" in out.stdout
 
 
-LADDER = """rung,knob,state,quantity,paper,ours,stat,syst,verdict,abs_rel_difference,rel_error,cases,particles,cpu_hours,replicate
-base,the validation case,run,u_max/u_slip,1.37–1.40,1.343,0.003,0.001,differs by -2.0 % (8 σ with stat and syst),0.0196,0.0023,1,"4,120",0.58
-base,the validation case,run,second quantity,1,0.5,0.1,,differs by -50 % (5 σ),0.5,0.1,1,"4,120",0.58
-B10,depth B 5 → 10 d_p,run,u_max/u_slip,1.37–1.40,1.356,0.004,0.001,differs by -1.0 % (3 σ with stat and syst),0.0100,0.0029,1,"8,240",1.26
-B15,depth B 5 → 15 d_p,run,u_max/u_slip,1.37–1.40,1.33,0.004,0.001,differs by -3.0 % (7 σ),0.0300,0.0029,1,"8,240",1.9
-B20,depth B 5 → 20 d_p,not run,,,,,,,,,,,
-seed2,the base reseeded,run,u_max/u_slip,1.37–1.40,1.369,0.003,0.001,within error (0.3 σ),0.0007,0.0023,1,"4,120",0.6,True
-B40,depth B 40,"planned (cost model, not run)",,,,,,,,,1,"32,959",25.2
-paper,the paper's channel,"planned (cost model, not run)",,,,,,,,,1,"99,000",230
+LADDER = """rung,knob,from_paper,state,quantity,paper,ours,stat,syst,verdict,abs_rel_difference,rel_error,cases,particles,cpu_hours,replicate
+base,the validation case,3,run,u_max/u_slip,1.37–1.40,1.343,0.003,0.001,differs by -2.0 % (8 σ with stat and syst),0.0196,0.0023,1,"4,120",0.58
+base,the validation case,3,run,second quantity,1,0.5,0.1,,differs by -50 % (5 σ),0.5,0.1,1,"4,120",0.58
+B10,depth B 5 → 10 d_p,2,run,u_max/u_slip,1.37–1.40,1.356,0.004,0.001,differs by -1.0 % (3 σ with stat and syst),0.0100,0.0029,1,"8,240",1.26
+B15,depth B 5 → 15 d_p,1,run,u_max/u_slip,1.37–1.40,1.33,0.004,0.001,differs by -3.0 % (7 σ),0.0300,0.0029,1,"8,240",1.9
+B18,depth B 5 → 18 d_p,1,run,u_max/u_slip,1.37–1.40,1.32,0.004,0.001,differs by -3.6 % (8 σ),0.0360,0.0029,1,"8,240",2.0
+B30,depth B 5 → 30 d_p,0.5,run,u_max/u_slip,1.37–1.40,,,,not measured,,,1,"8,240",3.0
+B20,depth B 5 → 20 d_p,0.5,not run,,,,,,,,,,,
+seed2,the base reseeded,3,run,u_max/u_slip,1.37–1.40,1.369,0.003,0.001,within error (0.3 σ),0.0007,0.0023,1,"4,120",0.6,True
+B40,depth B 40,0.2,"planned (cost model, not run)",,,,,,,,,1,"32,959",25.2
+paper,the paper's channel,0,"planned (cost model, not run)",,,,,,,,,1,"99,000",230
 """
 
 
-def test_the_page_shows_each_ladder_at_its_first_rung_and_closest_to_the_paper(tmp_path):
-    """The first headline of a committed ladder at the validation case and at the rung nearest the paper
-    (smallest |difference|), with both errors, its verdict and CPU-hours; the rungs counted."""
-    path = tmp_path / "alpha" / "ladder.csv"
-    path.parent.mkdir()
-    path.write_text(LADDER)
-    html = render(overview_rst(SUMMARIES, "demo", {"alpha": path}))
+def ladder_cells(html: str) -> list[list[str]]:
+    """The rows of the page's ladder table, as lists of cell texts."""
     rows = re.findall(r"<tr><td>(.*?)</tr>", html.split("one knob at a time")[1], re.S)
-    cells = [re.findall(r"<td>(.*?)</td>", "<td>" + r) for r in rows]
-    # B15 is farther from the paper than B10; seed2, nearer, is the base reseeded: no step toward the paper
-    assert [c[2] for c in cells] == ["base", "B10"]
-    assert cells[0][3:] == ["1.3430 ± 0.0030 ± 0.0010", "differs by -2.0 % (8 σ)", "0.58"]
-    assert cells[1][3:] == ["1.3560 ± 0.0040 ± 0.0010", "differs by -1.0 % (3 σ)", "1.26"]
-    assert "second quantity" not in html                     # one headline a scene: the ladder's first
-    assert "alpha: 4 rung(s) run, 2 planned; the costliest planned, paper, 230 CPU-h (cost model)." in html
+    return [re.findall(r"<td>(.*?)</td>", "<td>" + r) for r in rows]
+
+
+def ladder_page(tmp_path, text: str) -> str:
+    """The page (HTML, its entities read) of the campaign with ``text`` as scene alpha's ladder.csv."""
+    path = tmp_path / "alpha" / "ladder.csv"
+    path.parent.mkdir(exist_ok=True)
+    path.write_text(text)
+    return html.unescape(render(overview_rst(SUMMARIES, "demo", {"alpha": path})))
+
+
+def test_the_page_shows_the_rung_nearest_the_papers_setup_not_the_best_number(tmp_path):
+    """A ladder whose best-agreeing rung (B10, -1.0 %) is not the measured rung nearest the paper's setup
+    (B15, order 1, -3.0 %): the page shows the validation case, B15 as the nearest and B10 as the best
+    agreement, each labelled. B18 is as near as B15 and comes later; B30 (order 0.5) measured nothing and
+    B20 did not run; seed2, nearer the paper's number still, is the base reseeded: no step at all."""
+    page = ladder_page(tmp_path, LADDER)
+    cells = ladder_cells(page)
+    assert [c[2:5] for c in cells] == [["base", "validation case", "3"], ["B15", "nearest the paper's setup", "1"],
+                                       ["B10", "best agreement", "2"]]
+    assert cells[0][5:] == ["1.3430 ± 0.0030 ± 0.0010", "differs by -2.0 % (8 σ)", "0.58"]
+    assert cells[1][5:] == ["1.3300 ± 0.0040 ± 0.0010", "differs by -3.0 % (7 σ)", "1.90"]
+    assert cells[2][5:] == ["1.3560 ± 0.0040 ± 0.0010", "differs by -1.0 % (3 σ)", "1.26"]
+    assert "second quantity" not in page                     # one headline a scene: the ladder's first
+    assert "alpha: 6 rung(s) run, 2 planned; the costliest planned, paper, 230 CPU-h (cost model)." in page
+    assert "the measured rung nearest the paper's setup whatever its number" in page
     # without ladders the page has no such section
     assert "one knob at a time" not in overview_rst(SUMMARIES, "demo")
+
+
+def test_a_rung_both_nearest_and_best_is_one_row_with_both_labels(tmp_path):
+    text = LADDER.replace("B15,depth B 5 → 15 d_p,1,", "B15,depth B 5 → 15 d_p,2.5,").replace(
+        "B18,depth B 5 → 18 d_p,1,", "B18,depth B 5 → 18 d_p,2.5,")
+    cells = ladder_cells(ladder_page(tmp_path, text))
+    assert [c[2:4] for c in cells] == [["base", "validation case"], ["B10", "nearest the paper's setup; best agreement"]]
+    # the validation case nearest the paper's setup: its row says both
+    text = LADDER.replace("base,the validation case,3,", "base,the validation case,0.1,")
+    cells = ladder_cells(ladder_page(tmp_path, text))
+    assert [c[2:4] for c in cells] == [["base", "validation case; nearest the paper's setup"],
+                                       ["B10", "best agreement"]]
+
+
+def test_a_ladder_without_an_order_from_the_paper_calls_no_rung_nearest(tmp_path):
+    """A ladder.csv of before from_paper: the validation case and the best agreement, labelled, and a sentence
+    that the ladder declares no order."""
+    lines = [line.split(",", 3) for line in LADDER.splitlines()]
+    text = "\n".join(",".join(parts[:2] + parts[3:]) for parts in lines) + "\n"   # the from_paper column dropped
+    page = ladder_page(tmp_path, text)
+    assert [c[2:5] for c in ladder_cells(page)] == [["base", "validation case", "–"], ["B10", "best agreement", "–"]]
+    assert "declares no order from the paper's setup (from_paper), so no rung is called nearest." in page
 
 
 def test_page_starts_at_its_top_in_snakemakes_report():

@@ -112,6 +112,23 @@ class StudyHooks:
         """
         raise NotImplementedError(f"scene {self.name!r} has no validation (Scene.validation)")
 
+    def profile_checks(self, profiles: dict) -> list:
+        """Checks made from the record's own profiles alone (sweep fits over per-case numbers); none by default.
+
+        :meth:`validation` adds them to its checks; a committed record whose runs are gone is judged
+        again from its ``profiles/*.csv`` with the same code (``tools/rejudge_record.py``).
+
+        Parameters
+        ----------
+        profiles : dict of str to pandas.DataFrame
+            The record's profiles by name (``profiles/<name>.csv``).
+
+        Returns
+        -------
+        list of granflow.validation.Check
+        """
+        return []
+
     def paper_reference(self, scene: dict) -> dict:
         """Optional: particle count and simulated time of the paper rung (for the cost extrapolation).
 

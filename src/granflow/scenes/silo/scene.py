@@ -186,6 +186,12 @@ class SiloScene(Scene):
 
         return validation(Path(scene_dir), cases)
 
+    def profile_checks(self, profiles):
+        """v_c² linear in R (the paper's √R with Beverloo's offset) from the record's ``sweep`` profile."""
+        from .linearity import linearity_checks
+
+        return linearity_checks(profiles.get("sweep"))
+
     # -- the error-versus-cost study -------------------------------------------------------
     def observables(self, case_dir, record, t_average, block=None):
         """Over the discharge up to ``t_average`` after the opening, whose steady part the analysis finds

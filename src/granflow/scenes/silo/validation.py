@@ -40,6 +40,7 @@ from granflow.validation import Check, ValidationResult, concat_profiles, read_c
 from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.silo.analysis as sl
+from .linearity import linearity_checks
 
 #: the silo scene's headline keys (``SiloScene.headline``) and, per key, the analysis's own error
 HEADLINE_FALLBACK = {"W_f": "W_f_se", "profile_deviation": None, "h_c_over_R": "h_c_over_R_se"}
@@ -582,5 +583,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
               + [flow_scale_check(loaded), collapse_eq7_check(loaded), collapse_check(loaded)])
     for make in (surface_rate_check, profile_check, transition_check, bulk_check, partial_check, contact_check):
         checks += [make(c) for c in loaded]
-    return ValidationResult(checks=checks, profiles=profiles(loaded), figures=list(FIGURES),
-                            differences=differences(loaded))
+    kept = profiles(loaded)
+    # the paper's √R in its own form, from the per-orifice readings the record keeps (SiloScene.profile_checks)
+    checks += linearity_checks(kept.get("sweep"))
+    return ValidationResult(checks=checks, profiles=kept, figures=list(FIGURES), differences=differences(loaded))

@@ -403,7 +403,7 @@ def test_heap_mixture_checks_against_known_numbers(tmp_path):
         # c_s = 0.8 - 0.6 x/W, halves of [x_feed, W]: the difference of the halves' means
         assert_allclose(c.ours, 0.6 * 0.05 / 0.12, rtol=0.05)
         assert c.verdict == "within the paper's range"
-    (a,) = by_quantity(result, "δ/d̄ ∝ q*^a")
+    (a,) = by_quantity(result, "δ/d̄ ∝ q*^a: exponent a")
     assert_allclose(a.ours, Q_EXPONENT, rtol=1e-9)
     assert "2 case(s) at 20, 33 g/s" in a.note
     assert set(result.profiles) == {"streamwise", "collapse", "surface_at_window_start", "deposit"}
@@ -422,7 +422,7 @@ def test_heap_monodisperse_gives_nan_mixture_checks_without_exception(tmp_path):
     assert alpha.paper_range is None  # no paper alpha for 1.5 mm
     (delta,) = by_quantity(result, "δ/d̄ (flowing")
     assert "no clear trend" not in delta.note  # 6-7 d is the paper's statement for this very case
-    (a,) = by_quantity(result, "δ/d̄ ∝ q*^a")
+    (a,) = by_quantity(result, "δ/d̄ ∝ q*^a: exponent a")
     assert_allclose(a.ours, Q_EXPONENT, rtol=1e-9)
     assert "one feed rate" in a.note
     assert "deposit" not in result.profiles

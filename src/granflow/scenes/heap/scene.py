@@ -200,6 +200,12 @@ class HeapScene(Scene):
         return out
 
     # -- the validation record -------------------------------------------------------------
+    def profile_checks(self, profiles):
+        """δ/d̄ ∝ q*^a across feed rates at fixed x/L, from the record's ``streamwise`` profile."""
+        from .qstar import across_feed_rates
+
+        return across_feed_rates(profiles.get("streamwise"))
+
     def validation(self, scene_dir, cases):
         """Fan et al. (2013) against the cases: :func:`granflow.scenes.heap.validation.validation`."""
         from .validation import validation

@@ -32,6 +32,7 @@ from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.heap.analysis as hp
 from .pipeline import mixture_mean_diameter
+from .qstar import across_feed_rates
 
 #: the heap scene's headline keys (``HeapScene.headline``) and, per key, the analysis's own error
 HEADLINE_FALLBACK = {"alpha": "alpha_se", "delta_over_d": None, "tail_exponent": "tail_k_se"}
@@ -563,5 +564,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
             made = make(c)
             checks += made if isinstance(made, list) else [made]
     checks.append(q_star_check(loaded))
-    return ValidationResult(checks=checks, profiles=profiles(loaded), figures=list(FIGURES),
-                            differences=differences(loaded))
+    kept = profiles(loaded)
+    # the paper's pooling: across feed rates at fixed x/L, from the profile the record keeps (HeapScene.profile_checks)
+    checks += across_feed_rates(kept.get("streamwise"))
+    return ValidationResult(checks=checks, profiles=kept, figures=list(FIGURES), differences=differences(loaded))

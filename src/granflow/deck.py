@@ -14,6 +14,8 @@ from pathlib import Path
 
 import jinja2
 
+from postproc.safe_write import write_file, write_text
+
 from . import registry
 from .config import PROJECT_ROOT
 from .contact import ContactModel
@@ -212,7 +214,8 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     The template is ``<scene>.lmp.j2`` in the scene's package; ``context["data_files"]``
     maps file names to functions that write them (e.g. an initial packing). ``declared`` is
     the scene's declaration when it is not registered (a package checked by its path), else
-    the registry's.
+    the registry's. Each file is written under a temporary name and moved into place
+    (:mod:`postproc.safe_write`): a link at its name is replaced, never written through.
 
     Returns the parameter record (also written to ``params.json``).
     """
@@ -223,13 +226,13 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     for name, write in data_files.items():
-        write(outdir / name)
+        write_file(outdir / name, write)
     env = environment(None if declared is None else declared.package_dir)
     template = env.get_template(f"{context['scene']}.lmp.j2")
     for stage in stages:
         text = template.render(params=params, stage=stage, **context)
-        (outdir / f"{stage}.lmp").write_text(text)
-    (outdir / "params.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n")
+        write_text(outdir / f"{stage}.lmp", text)
+    write_text(outdir / "params.json", json.dumps(record, indent=2, sort_keys=True) + "\n")
     return record
 
 

@@ -80,6 +80,7 @@ from typing import Iterator, Sequence
 import numpy as np
 import pandas as pd
 
+from .cg_checks import StepOrder
 from .cg_frames import (FrameTally, Progress, contact_frames, count_selected, first_frames, input_paths, paired,
                         particle_frames, possible_radii, sha256)
 # the choices and the writers, re-exported: postproc.cg is the API (and describe_dropped, for the command)
@@ -278,9 +279,10 @@ class CoarseGraining:
     def _frames(self) -> Iterator[tuple[ParticleFrame, ContactFrame | None]]:
         """The selected atom frames, each with its contact frame (None without contact dumps)."""
         o, tally = self.options, self._tally
-        particles = particle_frames(self._paths, o.frames, tally, density=o.density,
-                                    drop_nonfinite=o.drop_nonfinite, allow_truncated=o.allow_truncated)
-        contacts = (contact_frames(self._contact_paths, o.contact_roles, o.allow_truncated)
+        self._order = (StepOrder(o.drop_repeated_steps), StepOrder(o.drop_repeated_steps, "contact frame"))
+        particles = particle_frames(self._paths, o.frames, tally, density=o.density, drop_nonfinite=o.drop_nonfinite,
+                                    allow_truncated=o.allow_truncated, order=self._order[0])
+        contacts = (contact_frames(self._contact_paths, o.contact_roles, o.allow_truncated, self._order[1])
                     if self._contact_paths else None)
         return paired(particles, contacts, o.frames, lambda: tally.truncated is None)
 
@@ -345,6 +347,9 @@ class CoarseGraining:
                 "particle_frames": tally.n_particles,
                 "particle_frames_in_grid": tally.n_inside,
                 "dropped_nonfinite": tally.dropped if o.drop_nonfinite else None,
+                "dropped_repeated_steps": ({"atom_frames": self._order[0].record(),
+                                            "contact_frames": self._order[1].record()}
+                                           if o.drop_repeated_steps else None),
             },
             "coordinates": {"choice": o.coords, "names": list(coordinates.names),
                             "components": list(getattr(coordinates, "components", ("x", "y", "z"))),
@@ -391,6 +396,7 @@ def coarse_grain(
     max_nodes: int = DEFAULT_MAX_NODES,
     allow_truncated: bool = False,
     drop_nonfinite: bool = False,
+    drop_repeated_steps: bool = False,
     progress=None,
     method: str = "auto",
 ) -> CGResult:
@@ -418,7 +424,7 @@ def coarse_grain(
     Other Parameters
     ----------------
     coords, spacing, axis, kernel, width, cutoff, ranges, contact_roles, species, frames, density, volume,
-    n_blocks, max_nodes, allow_truncated, drop_nonfinite, method
+    n_blocks, max_nodes, allow_truncated, drop_nonfinite, drop_repeated_steps, method
         The choices, as :class:`~postproc.cg_options.CGOptions` documents them.
 
     Returns
@@ -429,16 +435,21 @@ def coarse_grain(
     ------
     CGInputError
         For any refused choice or input, before reading when it can be known then
-        (a missing file first, then the choices, then against the first frames);
-        as the frames are read, an atom with a mass, radius or diameter
-        :math:`\\le 0` or (unless ``drop_nonfinite``) a non-finite value, naming
-        the file, the step, the atom id and the column.
+        (an input that is not a readable, non-empty regular file, or one given
+        twice, first, then the choices, then against the first frames); as the
+        frames are read, a box bound that is not finite or a low bound not below
+        its high one, a timestep not after the previous frame's (unless
+        ``drop_repeated_steps``), a contact with a non-finite id, force or branch
+        value or a branch longer than the box, an atom with a mass, radius or
+        diameter :math:`\\le 0` or (unless ``drop_nonfinite``) a non-finite value,
+        naming the file, the step, the atom ids and the column.
     """
     paths, contact_paths = input_paths(dumps, contacts)
     options = CGOptions(coords=coords, spacing=spacing, axis=axis, kernel=kernel, width=width, cutoff=cutoff,
                         ranges=ranges, contact_roles=contact_roles, species=species, frames=frames,
                         density=density, volume=volume, n_blocks=n_blocks, max_nodes=max_nodes,
-                        allow_truncated=allow_truncated, drop_nonfinite=drop_nonfinite, method=method)
+                        allow_truncated=allow_truncated, drop_nonfinite=drop_nonfinite,
+                        drop_repeated_steps=drop_repeated_steps, method=method)
     return CoarseGraining(options).compute(paths, contact_paths, progress=progress)
 
 

@@ -6,14 +6,21 @@ is done by :class:`postproc.cg.CoarseGraining`; this module parses and reports.
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import sys
 import textwrap
 from pathlib import Path
 
-from .cg import (COORDINATES, DEFAULT_BLOCKS, DEFAULT_MAX_NODES, GAUSSIAN_CUTOFF, KERNELS, CGInputError, CGOptions,
-                 CoarseGraining, check_outputs, describe_dropped, parse_numbers, parse_ranges, write_result)
+from .cg import (COORDINATES, DEFAULT_BLOCKS, DEFAULT_MAX_NODES, GAUSSIAN_CUTOFF, KERNELS, OUTPUT_NAMES,
+                 CGInputError, CGOptions, CoarseGraining, check_outputs, describe_dropped, parse_numbers, parse_ranges,
+                 write_result)
 from .cg_frames import input_paths
+from .safe_write import OutputWriteError
+
+#: Exit statuses of ``granflow cg``: done; the outputs could not be written (a full disk, a lost
+#: permission: the earlier outputs stay as they were); an input or a choice refused (nothing written).
+EXIT_OK, EXIT_NOT_WRITTEN, EXIT_REFUSED = 0, 1, 2
 
 DESCRIPTION = """\
 Coarse-grain LAMMPS `dump custom` files (text, gzipped text or binary, told
@@ -31,8 +38,19 @@ that starts with a minus sign needs '=': --range=-20:50, --axis=-3,4.
 An atom with a mass, radius or diameter <= 0 is refused, and so is one with
 a NaN or infinite position, velocity, spin, mass or radius unless
 --drop-nonfinite leaves it out (counted in the output and meta.json); the
-refusal names the file, the step, the atom id and the column. The outputs
-never replace an input.
+refusal names the file, the step, the atom id and the column. So is a box
+bound that is not finite or a low bound not below its high one; a timestep
+not after the previous frame's (a dump given twice, dumps out of time order,
+a restarted run's overlap) unless --drop-repeated-steps leaves such frames out
+(counted); a contact with a NaN or infinite id, force or branch value, or a
+branch longer than the box; an input that is not a non-empty regular file; a
+line over 1 MiB; a gzip stream expanding more than 200 times.
+
+The outputs never replace an input and never go through a symbolic link;
+they are written under temporary names and moved into place together when
+complete, so --overwrite keeps the earlier ones until then. Exit status: 0
+done, 2 refused (nothing written), 1 the outputs could not be written (e.g. a
+full disk; one line names the file, the earlier outputs stay as they were).
 
 coordinates: x y z xy xz yz xyz resolve those axes and integrate over the rest
   of the box; r is the distance from the vertical axis --axis X0,Y0 (default
@@ -110,7 +128,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--drop-nonfinite", action="store_true",
                     help="leave out atoms with a NaN or infinite position, velocity, spin, mass or radius "
                          "(counted in the output and meta.json) instead of refusing the dump")
-    ap.add_argument("--overwrite", action="store_true", help="replace the outputs already in DIR")
+    ap.add_argument("--drop-repeated-steps", action="store_true",
+                    help="leave out frames whose timestep is not after the previous frame's (repeated or going "
+                         "back; the first read is kept), counted in the output and meta.json, instead of refusing")
+    ap.add_argument("--overwrite", action="store_true",
+                    help="replace the outputs already in DIR (kept until the new ones are complete)")
     ap.add_argument("--quiet", action="store_true", help="no progress line")
     ap.add_argument("--out", required=True, metavar="DIR", help="output directory")
 
@@ -152,14 +174,18 @@ def run(args: argparse.Namespace, command: str | None = None) -> int:
     Returns
     -------
     int
-        The exit status; a refusal (:class:`~postproc.cg_output.CGInputError`) is
-        printed to stderr as ``granflow: refused: ...``, not raised.
+        :data:`EXIT_OK`; :data:`EXIT_REFUSED` for a refusal
+        (:class:`~postproc.cg_output.CGInputError`, printed to stderr as
+        ``granflow: refused: ...``, nothing written); :data:`EXIT_NOT_WRITTEN`
+        when an output cannot be written (one line, ``granflow: could not write
+        PATH: ...``; the earlier outputs stay as they were).
     """
     out = Path(args.out)
     try:
         check_outputs(out, [*args.dumps, *args.contacts])
-        if (out / "fields.csv").exists() and not args.overwrite:
-            raise CGInputError(f"--out {out} already holds fields.csv from an earlier run; choose another "
+        held = [name for name in OUTPUT_NAMES if os.path.lexists(out / name)]
+        if held and not args.overwrite:
+            raise CGInputError(f"--out {out} already holds {held[0]} from an earlier run; choose another "
                                f"--out or pass --overwrite")
         axis = None
         if args.axis is not None:
@@ -174,14 +200,21 @@ def run(args: argparse.Namespace, command: str | None = None) -> int:
             cutoff=args.cutoff, ranges=ranges, contact_roles=roles, species=species,
             frames=args.frames, density=args.density, volume="exact" if args.exact_volume else "centre",
             n_blocks=args.blocks, max_nodes=args.max_nodes, allow_truncated=args.allow_truncated,
-            drop_nonfinite=args.drop_nonfinite,
+            drop_nonfinite=args.drop_nonfinite, drop_repeated_steps=args.drop_repeated_steps,
         )
         result = CoarseGraining(options).compute(dumps, contacts, progress=None if args.quiet else sys.stderr)
     except CGInputError as exc:
         print(f"granflow: refused: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_REFUSED
     result.meta["command"] = command
-    paths = write_result(result, out)
+    try:
+        paths = write_result(result, out)
+    except CGInputError as exc:  # an output changed into a link or an input since the check
+        print(f"granflow: refused: {exc}", file=sys.stderr)
+        return EXIT_REFUSED
+    except OutputWriteError as exc:
+        print(f"granflow: {exc}", file=sys.stderr)
+        return EXIT_NOT_WRITTEN
     meta = result.meta
     frames = meta["frames"]
     print(f"granflow cg: {frames['count']} frames (steps {frames['first_step']}..{frames['last_step']}), "
@@ -191,10 +224,33 @@ def run(args: argparse.Namespace, command: str | None = None) -> int:
           + f"; {meta['elapsed_s']:.1f} s, {meta['particle_frames_per_s'] / 1e6:.2f} M particle-frames/s")
     if frames["dropped_nonfinite"] is not None:
         print(f"  --drop-nonfinite: left out {describe_dropped(frames['dropped_nonfinite'], frames['count'])}")
+    if frames["dropped_repeated_steps"] is not None:
+        print(f"  --drop-repeated-steps: left out {describe_repeated(frames['dropped_repeated_steps'])}")
     for w in result.warnings:
         print(textwrap.fill(f"warning: {w}", width=100, subsequent_indent="  "), file=sys.stderr)
     print("  wrote " + ", ".join(str(p) for p in paths.values()))
     return 0
+
+
+def describe_repeated(dropped: dict) -> str:
+    """``meta["frames"]["dropped_repeated_steps"]`` in words.
+
+    Parameters
+    ----------
+    dropped : dict
+        ``atom_frames`` and ``contact_frames``, each ``{"frames": n, "first": {"path", "step", "after_step"}}``.
+
+    Returns
+    -------
+    str
+    """
+    parts = []
+    for key, noun in (("atom_frames", "atom frame"), ("contact_frames", "contact frame")):
+        n, first = dropped[key]["frames"], dropped[key]["first"]
+        if n:
+            parts.append(f"{n} {noun}{'s' if n != 1 else ''} (the first at step {first['step']} of {first['path']}, "
+                         f"after step {first['after_step']})")
+    return " and ".join(parts) or "no frame (every step was after the one before)"
 
 
 def main(argv: list[str] | None = None) -> int:

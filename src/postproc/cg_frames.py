@@ -1,6 +1,7 @@
 """The frames ``granflow cg`` (:mod:`postproc.cg`) reads: the input files, the first selected frames,
-the atom and contact frames streamed (the atoms no particle can have refused or dropped) and paired
-by step, what the frame loop counts, the progress line and the inputs' SHA-256."""
+the atom and contact frames streamed (impossible boxes refused, steps in order, the atoms no particle
+can have refused or dropped) and paired by step, what the frame loop counts, the progress line and the
+inputs' SHA-256."""
 from __future__ import annotations
 
 import hashlib
@@ -12,6 +13,7 @@ from typing import Callable, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
+from .cg_checks import StepOrder, check_box, check_input_files
 from .cg_output import CGInputError
 from .contacts import ContactFrame, read_contact_dump
 from .dump import DumpError, read_dump, read_dumps
@@ -20,7 +22,8 @@ from .frame import DumpFrame, ImpossibleValues, ParticleFrame, impossible_values
 
 def input_paths(dumps: Sequence[str | os.PathLike], contacts: Sequence[str | os.PathLike] | None = ()
                 ) -> tuple[list[str], list[str]]:
-    """The atom and contact dump paths as strings; refuses none given or one that is not a file.
+    """The atom and contact dump paths as strings; refuses none given, one that is not a readable,
+    non-empty regular file, and one given twice (:func:`~postproc.cg_checks.check_input_files`).
 
     Parameters
     ----------
@@ -36,15 +39,14 @@ def input_paths(dumps: Sequence[str | os.PathLike], contacts: Sequence[str | os.
     Raises
     ------
     CGInputError
-        When ``dumps`` is empty or a path is not a file.
+        When ``dumps`` is empty, a path is not a readable, non-empty regular file
+        (the message says what it is), or a file is given twice.
     """
     paths = [os.fspath(p) for p in dumps]
     contact_paths = [os.fspath(p) for p in contacts or ()]
     if not paths:
         raise CGInputError("no dump file given")
-    for p in paths + contact_paths:
-        if not os.path.isfile(p):
-            raise CGInputError(f"dump file {p} does not exist")
+    check_input_files(paths, contact_paths)
     return paths, contact_paths
 
 
@@ -132,10 +134,13 @@ class FrameTally:
 
 
 def particle_frames(paths: Sequence[str], select: Callable[[int], bool], tally: FrameTally, *,
-                    density: float | None, drop_nonfinite: bool, allow_truncated: bool) -> Iterator[ParticleFrame]:
+                    density: float | None, drop_nonfinite: bool, allow_truncated: bool,
+                    order: StepOrder | None = None) -> Iterator[ParticleFrame]:
     """The selected frames of the dumps in turn, as particle frames (:func:`possible_atoms` first).
 
-    Dropped atoms and, with ``allow_truncated``, the end of a truncated dump are recorded in ``tally``.
+    Each frame's box is checked (:func:`~postproc.cg_checks.check_box`) and its step
+    (``order``). Dropped atoms and, with ``allow_truncated``, the end of a truncated
+    dump are recorded in ``tally``.
 
     Parameters
     ----------
@@ -152,6 +157,8 @@ def particle_frames(paths: Sequence[str], select: Callable[[int], bool], tally: 
         Leave out atoms with a non-finite value instead of refusing the frame.
     allow_truncated : bool
         End quietly at a truncated dump instead of refusing it.
+    order : StepOrder, optional
+        Refuses (or drops and counts) a frame whose step is not after the last one's.
 
     Yields
     ------
@@ -161,12 +168,15 @@ def particle_frames(paths: Sequence[str], select: Callable[[int], bool], tally: 
     ------
     CGInputError
         For a dump that does not read (:class:`~postproc.frame.DumpError`; a
-        truncated one unless ``allow_truncated``) or an atom no particle can be
-        (:func:`possible_atoms`).
+        truncated one unless ``allow_truncated``), an impossible box, a step out
+        of order, or an atom no particle can be (:func:`possible_atoms`).
     """
     try:
         for path in paths:
             for frame in read_dump(path, select=select):
+                check_box(path, frame.box, frame.timestep)
+                if order is not None and not order.admit(path, frame.timestep):
+                    continue
                 frame, columns, n_dropped = possible_atoms(path, frame, drop_nonfinite)
                 if n_dropped:
                     tally.drop(frame.timestep, columns, n_dropped)
@@ -180,9 +190,13 @@ def particle_frames(paths: Sequence[str], select: Callable[[int], bool], tally: 
         raise CGInputError(f"{exc}{hint}") from None
 
 
-def contact_frames(paths: Sequence[str], roles: Mapping[str, str] | None, allow_truncated: bool
-                   ) -> Iterator[ContactFrame]:
+def contact_frames(paths: Sequence[str], roles: Mapping[str, str] | None, allow_truncated: bool,
+                   order: StepOrder | None = None) -> Iterator[ContactFrame]:
     """The frames of the contact dumps in turn; a truncated one ends them when ``allow_truncated``.
+
+    Each frame's box is checked (:func:`~postproc.cg_checks.check_box`) and its step
+    (``order``); the reader refuses a non-finite id, force or branch value, or a
+    branch longer than the box (:func:`~postproc.contacts.read_contact_dump`).
 
     Parameters
     ----------
@@ -192,6 +206,8 @@ def contact_frames(paths: Sequence[str], roles: Mapping[str, str] | None, allow_
         Column of each role (:func:`postproc.contacts.read_contact_dump`).
     allow_truncated : bool
         End quietly at a truncated dump instead of refusing it.
+    order : StepOrder, optional
+        Refuses (or drops and counts) a frame whose step is not after the last one's.
 
     Yields
     ------
@@ -200,11 +216,15 @@ def contact_frames(paths: Sequence[str], roles: Mapping[str, str] | None, allow_
     Raises
     ------
     CGInputError
-        For a dump that does not read (a truncated one unless ``allow_truncated``).
+        For a dump that does not read (a truncated one unless ``allow_truncated``),
+        an impossible box or a step out of order.
     """
     try:
         for p in paths:
-            yield from read_contact_dump(p, roles=roles)
+            for frame in read_contact_dump(p, roles=roles):
+                check_box(p, frame.box, frame.timestep, "contact frame")
+                if order is None or order.admit(p, frame.timestep):
+                    yield frame
     except DumpError as exc:
         if getattr(exc, "truncated", False) and allow_truncated:
             return
@@ -311,19 +331,23 @@ def first_frames(paths: Sequence[str], select: Callable[[int], bool], limit: int
     Raises
     ------
     CGInputError
-        When no frame is selected.
+        When no frame is selected, or a frame's box is impossible.
     DumpError
         For a dump that does not read.
     """
     first = None
-    for k, frame in enumerate(read_dumps(paths, select=select)):
+    frames = ((path, frame) for path in paths for frame in read_dump(path, select=select))
+    for k, (path, frame) in enumerate(frames):
+        check_box(path, frame.box, frame.timestep)
         first = first or frame
         if frame.natoms > 0:
             return first, frame
         if k >= limit:
             break
     if first is None:
-        raise CGInputError(f"no frame of {', '.join(paths)} is selected by --frames")
+        every = getattr(select, "describe", lambda: "")() == "all frames"
+        raise CGInputError(f"{', '.join(paths)} hold{'s' if len(paths) == 1 else ''} no frame" if every else
+                           f"no frame of {', '.join(paths)} is selected by --frames")
     return first, None
 
 

@@ -425,6 +425,11 @@ class CGOptions:
         mass or radius (counted in ``meta["frames"]["dropped_nonfinite"]``:
         atom-frames, frames, the first step, per column) instead of refusing the
         input. A mass or radius :math:`\\le 0` is refused either way.
+    drop_repeated_steps : bool
+        Leave out the atom and contact frames whose timestep is not after the
+        previous one's (repeated or going back; the frame read first is kept),
+        counted in ``meta["frames"]["dropped_repeated_steps"]``, instead of
+        refusing the input (:class:`~postproc.cg_checks.StepOrder`).
     method : {"auto", "compiled", "numpy"}
         Deposit path (the compiled one is used for Gaussian ``rz`` by default).
     """
@@ -445,6 +450,7 @@ class CGOptions:
     max_nodes: int = DEFAULT_MAX_NODES
     allow_truncated: bool = False
     drop_nonfinite: bool = False
+    drop_repeated_steps: bool = False
     method: str = "auto"
 
     def __post_init__(self):

@@ -1,5 +1,7 @@
 """What ``granflow cg`` writes: ``fields.csv``, ``meta.json`` and ``fields.vtr`` of a :class:`postproc.cg.CGResult`,
-and the check that none of them would replace an input (moved out of :mod:`postproc.cg`, which re-exports them)."""
+and the check that none of them would replace an input or go through a link (moved out of :mod:`postproc.cg`,
+which re-exports them). The three files are written under temporary names and moved into place together
+(:mod:`postproc.safe_write`): an earlier result stays whole until the new one is complete."""
 from __future__ import annotations
 
 import json
@@ -8,6 +10,8 @@ from pathlib import Path
 from typing import Iterable
 
 import numpy as np
+
+from .safe_write import output_refusal, staged_files
 
 #: The files :func:`write_result` writes into its directory.
 OUTPUT_NAMES = ("fields.csv", "meta.json", "fields.vtr")
@@ -33,7 +37,10 @@ def check_outputs(out_dir: str | os.PathLike, inputs: Iterable[str | os.PathLike
     Raises :class:`CGInputError` naming the input when ``out_dir`` is an input
     file, when one of the files :func:`write_result` writes there
     (:data:`OUTPUT_NAMES`) is an input (by name, through a symbolic link or as a
-    hard link), or when ``out_dir`` exists and is not a directory.
+    hard link), or when ``out_dir`` exists and is not a directory; and naming
+    the file when one of those names holds a symbolic link (dangling or not: an
+    output never goes through one, nor replaces one) or anything but a regular
+    file.
 
     Parameters
     ----------
@@ -59,6 +66,11 @@ def check_outputs(out_dir: str | os.PathLike, inputs: Iterable[str | os.PathLike
                                    f"never writes over its input; choose another --out")
     if out.exists() and not out.is_dir():
         raise CGInputError(f"--out {out} exists and is not a directory: choose a directory for the fields")
+    for name in OUTPUT_NAMES:
+        why = output_refusal(out / name)
+        if why:
+            raise CGInputError(f"--out {out}: {why}: granflow cg never writes through a link or over anything "
+                               f"but its own regular files; remove it or choose another --out")
 
 
 def write_result(result, out_dir: str | os.PathLike) -> dict[str, Path]:
@@ -68,7 +80,9 @@ def write_result(result, out_dir: str | os.PathLike) -> dict[str, Path]:
     point array per column of the table; resolved coordinates map to the VTK
     axes x, y, z by name (``r`` to x), unresolved ones are a single layer at
     zero. Raises :class:`CGInputError` (:func:`check_outputs`), writing
-    nothing, when that would replace one of the result's inputs.
+    nothing, when that would replace one of the result's inputs or go through a
+    link. The files are written under temporary names and moved into place
+    only when all three are complete, so earlier ones stay as they were until then.
 
     Parameters
     ----------
@@ -85,17 +99,21 @@ def write_result(result, out_dir: str | os.PathLike) -> dict[str, Path]:
     Raises
     ------
     CGInputError
-        When writing would replace an input (nothing is written).
+        When writing would replace an input or go through a link (nothing is written).
+    postproc.safe_write.OutputWriteError
+        When a file cannot be written (a full disk, ...): it names the file, and
+        the earlier files in ``out_dir`` are unchanged.
     """
     out = Path(out_dir)
     check_outputs(out, [entry["path"] for entry in result.meta.get("inputs", ())])
-    out.mkdir(parents=True, exist_ok=True)
     paths = {"fields": out / "fields.csv", "meta": out / "meta.json", "vtk": out / "fields.vtr"}
-    result.fields.to_csv(paths["fields"], index=False)
-    paths["vtk"] = _write_vtk(result, out / "fields")
     meta = dict(result.meta)
     meta["outputs"] = {k: p.name for k, p in paths.items()}
-    paths["meta"].write_text(json.dumps(meta, indent=2, default=_json_default) + "\n")
+    text = json.dumps(meta, indent=2, default=_json_default) + "\n"
+    with staged_files(out) as files:
+        files.write("fields.csv", lambda tmp: result.fields.to_csv(tmp, index=False))
+        files.write("fields.vtr", lambda tmp: _write_vtk(result, tmp.with_suffix("")))
+        files.write("meta.json", lambda tmp: tmp.write_text(text, encoding="utf-8"))
     return paths
 
 

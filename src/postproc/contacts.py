@@ -349,7 +349,10 @@ def read_contact_dump(path: str | os.PathLike, roles: Mapping[str, str] | None =
         If a frame is truncated or malformed, the file is binary, or the header's
         columns do not provide the roles (the message lists the columns and how to
         name them); the message names the file, the 0-based frame index, the line
-        and the byte at which the frame starts.
+        and the byte at which the frame starts. Also for an entry with a NaN or
+        infinite id, force or branch value, or a branch component longer than the
+        box (a branch joins two touching particles), naming the entry, its two
+        atom ids and the column.
     """
     roles = dict(roles or {})
     unknown = sorted(set(roles) - set(ROLES))
@@ -370,8 +373,46 @@ def _read_contacts(path: str, roles: dict[str, str], select) -> Iterator[Contact
         return columns if isinstance(columns, str) else None
 
     for block in text_frames(path, "ENTRIES", "entry", check_names=refuse, select=select):
-        yield _contact_frame(block.timestep, block.box, block.data, _column_indices(block.names, roles),
-                             time=block.time)
+        columns = _column_indices(block.names, roles)
+        why = _impossible_entries(block.data, block.names, block.box, columns, roles)
+        if why:
+            raise DumpError(f"{path}: frame {block.frame} at step {block.timestep} (line {block.line}): {why}",
+                            path=path, frame=block.frame, byte=block.byte, truncated=False, line=block.line)
+        yield _contact_frame(block.timestep, block.box, block.data, columns, time=block.time)
+
+
+def _impossible_entries(data: np.ndarray, names: list[str], box: np.ndarray, columns: dict,
+                        roles: Mapping[str, str]) -> str | None:
+    """Why a frame's entries cannot be contacts (a non-finite id, force or branch value, or a branch
+    component longer than the box), naming the entry, its two atoms and the column; None if they can."""
+    used = list(columns["ids"]) + list(columns["branch"] or []) + [j for f in columns["forces"] for j in f]
+    values = data[:, used]
+    role_of = {column: role for role, column in roles.items()}
+
+    def entry(row: int, k: int, allowed: str, count: int) -> str:
+        i, j = (data[row, c] for c in columns["ids"])
+        atoms = (f"atoms {int(i)} and {int(j)}" if np.isfinite([i, j]).all() else f"atoms {i:g} and {j:g}")
+        name = names[used[k]]
+        role = f" ({role_of[name]})" if name in role_of and role_of[name] != name else ""
+        others = f" ({count} entries of this frame have such values)" if count > 1 else ""
+        return (f"entry {row + 1}, the contact of {atoms}: column {name}{role} = {data[row, used[k]]:g} is not "
+                f"allowed: allowed {allowed}{others}")
+
+    bad = ~np.isfinite(values)
+    if bad.any():
+        row, k = np.argwhere(bad)[0]
+        return entry(int(row), int(k), "a finite number", int(bad.any(axis=1).sum()))
+    if columns["branch"] is None or not np.isfinite(box).all():
+        return None
+    length = np.abs(np.diff(np.asarray(box, dtype=float), axis=1)[:, 0])
+    n_ids = len(columns["ids"])
+    too_long = np.abs(values[:, n_ids:n_ids + 3]) > length
+    if not too_long.any():
+        return None
+    row, k = np.argwhere(too_long)[0]
+    return entry(int(row), n_ids + int(k), f"a branch component no longer than the box along {'xyz'[k]} "
+                 f"({length[k]:g}): a branch joins the centres of two touching particles",
+                 int(too_long.any(axis=1).sum()))
 
 
 def _column_indices(names: list[str], roles: Mapping[str, str] | None = None):

@@ -9,7 +9,6 @@ counting lines and bytes for the error messages (:class:`Lines`);
 from __future__ import annotations
 
 import gzip
-import itertools
 import os
 import zlib
 from dataclasses import dataclass
@@ -20,34 +19,52 @@ import numpy as np
 from .dump_common import Select, boundary_string, column_picks, columns_sorted, dump_format
 from .frame import DumpError, DumpFrame
 
+#: Longest line read, in bytes: a line of a LAMMPS dump holds one atom's (or one
+#: header's) values, tens to a few thousand bytes; a longer one is refused as soon
+#: as this much of it is read, so memory stays bounded whatever the file holds.
+MAX_LINE_BYTES = 1 << 20
+#: Largest expansion of a gzipped dump, decompressed bytes per compressed byte.
+#: Text dumps expand 3 to 11 times (random to lattice positions) and frames
+#: without atoms about 40 times; deflate's own ceiling is 1032, what a gzip bomb
+#: (one repeated byte) reaches. Checked once :data:`GZIP_RATIO_FLOOR` bytes are out.
+MAX_GZIP_RATIO = 200
+#: Decompressed bytes read before :data:`MAX_GZIP_RATIO` applies.
+GZIP_RATIO_FLOOR = 16 << 20
+
 
 class StreamError(Exception):
-    """The gzip stream broke while reading (internal): ``truncated`` or corrupted."""
+    """The stream cannot be read on (internal): the gzip stream is ``truncated`` or corrupted, a line
+    is too long, or the gzip stream expands too much (then ``line`` is where, and the message says so)."""
 
-    def __init__(self, what: str, truncated: bool) -> None:
+    def __init__(self, what: str, truncated: bool, line: int | None = None) -> None:
         super().__init__(what)
         self.truncated = truncated
+        self.line = line
 
 
 class Lines:
     """Binary line reader over a text or gzipped text dump that counts lines and bytes (internal).
 
     ``lineno`` is the number of lines read so far, ``pos`` the byte offset just
-    past them (in the decompressed stream for gzip). Errors of the gzip stream
-    become :class:`StreamError`.
+    past them (in the decompressed stream for gzip). Errors of the gzip stream,
+    a line longer than :data:`MAX_LINE_BYTES` and a gzip stream expanding more
+    than :data:`MAX_GZIP_RATIO` times become :class:`StreamError`.
     """
 
     def __init__(self, path: str, fmt: str) -> None:
         self.gz = fmt == "gzip"
-        self.fh = gzip.open(path, "rb") if self.gz else open(path, "rb")
+        self.raw = open(path, "rb")
+        self.fh = gzip.GzipFile(fileobj=self.raw, mode="rb") if self.gz else self.raw
         self.lineno = 0
         self.pos = 0
+        self._next_ratio_check = GZIP_RATIO_FLOOR
 
     def __enter__(self) -> "Lines":
         return self
 
     def __exit__(self, *exc) -> None:
         self.fh.close()
+        self.raw.close()
 
     def _guard(self, call):
         try:
@@ -69,11 +86,26 @@ class Lines:
         StreamError
             When the gzip stream ends early or is corrupted.
         """
-        line = self._guard(self.fh.readline)
+        line = self._guard(lambda: self.fh.readline(MAX_LINE_BYTES))
+        self._count(line)
+        return line
+
+    def _count(self, line: bytes) -> None:
+        """Count a line read; refuse one cut at :data:`MAX_LINE_BYTES`, or a gzip stream expanding too much."""
+        if len(line) >= MAX_LINE_BYTES and not line.endswith(b"\n"):
+            raise StreamError(f"line {self.lineno + 1} (from byte {self.pos}) is longer than {MAX_LINE_BYTES:,} "
+                              f"bytes: a line of a LAMMPS dump holds one atom's values; this is not a dump",
+                              False, line=self.lineno + 1)
         if line:
             self.lineno += 1
             self.pos += len(line)
-        return line
+        if self.gz and self.pos >= self._next_ratio_check:
+            self._next_ratio_check = self.pos + GZIP_RATIO_FLOOR
+            compressed = max(self.raw.tell(), 1)
+            if self.pos > MAX_GZIP_RATIO * compressed:
+                raise StreamError(f"its first {compressed:,} compressed bytes expand to {self.pos:,} (line "
+                                  f"{self.lineno}), more than {MAX_GZIP_RATIO} times: a gzipped LAMMPS dump "
+                                  f"expands 3 to 40 times; this is not a dump (a gzip bomb?)", False, line=self.lineno)
 
     def lines(self, n: int) -> list[bytes]:
         """The next ``n`` lines, fewer at the end of the stream.
@@ -92,9 +124,16 @@ class Lines:
         StreamError
             When the gzip stream ends early or is corrupted.
         """
-        lines = self._guard(lambda: list(itertools.islice(self.fh, n)))
-        self.lineno += len(lines)
-        self.pos += sum(map(len, lines))
+        return self._guard(lambda: self._read_lines(n))
+
+    def _read_lines(self, n: int) -> list[bytes]:
+        readline, count, lines = self.fh.readline, self._count, []
+        for _ in range(n):
+            line = readline(MAX_LINE_BYTES)
+            if not line:
+                break
+            count(line)
+            lines.append(line)
         return lines
 
 
@@ -261,8 +300,9 @@ def text_frames(path: str | os.PathLike, item: str, noun: str,
                 yield TextBlock(frame, timestep, box, flags, names, data, time=time, units=units,
                                 line=start_line, byte=start_byte)
         except StreamError as exc:
-            raise fail(f"is {'truncated' if exc.truncated else 'corrupted'}: {exc} after line {src.lineno}, "
-                       f"byte {src.pos}", exc.truncated, ends=False) from None
+            after = "" if exc.line else f" after line {src.lineno}, byte {src.pos}"
+            raise fail(f"is {'truncated' if exc.truncated else 'corrupted'}: {exc}{after}", exc.truncated,
+                       line=exc.line, ends=False) from None
 
 
 def read_text_dump(path: str | os.PathLike, columns: Sequence[str] | None = None, *,

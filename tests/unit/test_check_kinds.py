@@ -23,3 +23,36 @@ def test_with_kinds_takes_the_verdict_away():
     judged = with_kinds(result, {"a": "consistency"})
     assert judged.checks[0].kind == "consistency" and judged.checks[0].verdict.startswith("consistency: no verdict")
     assert judged.checks[1].kind == "comparison" and judged.checks[1].verdict.startswith("one sample: off by")
+
+
+@pytest.mark.parametrize("name", [p.parent.name for p in sorted(__import__("pathlib").Path(__file__).resolve()
+                                                                  .parents[2].glob("validation/*/summary.json"))])
+def test_committed_record_judges_only_comparisons(name, root):
+    import json
+
+    summary = json.loads((root / "validation" / name / "summary.json").read_text())
+    kinds = registry.get(name).check_kinds
+    for c in summary["checks"]:
+        assert c.get("kind") in KINDS, (c["quantity"], c.get("kind"))
+        if c["quantity"] in kinds:
+            assert c["kind"] == kinds[c["quantity"]], c["quantity"]
+        if c["kind"] != "comparison":
+            assert c["verdict"] == f"{c['kind']}: no verdict against the paper", c["quantity"]
+        assert int(c.get("n_replicates") or 0) >= 1
+    for case in summary["cases"]:
+        assert case["seed"] in case["seeds"], case["dir"]
+
+
+def test_rejudging_a_record_twice_changes_nothing(root, tmp_path):
+    import json
+    import shutil
+
+    from granflow.rejudge import rejudge
+
+    for name in ("heap", "silo"):
+        shutil.copytree(root / "validation" / name, tmp_path / name)
+        first = rejudge(tmp_path / name, name)
+        second = rejudge(tmp_path / name, name)
+        assert json.dumps(first["checks"], sort_keys=True) == json.dumps(second["checks"], sort_keys=True)
+        assert (tmp_path / name / "checks.csv").read_text().splitlines()[0].endswith(
+            "kind,run_to_run,n_replicates,verdict,difference")

@@ -24,6 +24,10 @@ class ChuteScene(Scene):
     snapshot = SnapshotView(color="speed", view=(90.0, -90.0), center=(0.5, 0.5, 0.24), size=(500, 700), zoom=2.2)
     summary = "steady flow down a rough inclined plane: stress ratio tan(theta), weight, Bagnold profile, regimes"
     paper = "Silbert, Ertas, Grest, Halsey, Levine & Plimpton (2001), Phys. Rev. E 64, 051302"
+    #: the plain ratio over tan θ holds only in steady flow: with the bed's acceleration the balance is the
+    #: comparison, the plain ratio and the acceleration itself are readings of the run
+    check_kinds = {"bulk -σ_xz/σ_zz / tan θ": "diagnostic",
+                   "u_cm acceleration over the averaging window / (g sin θ)": "diagnostic"}
     sweep = (SweepAxis("theta_deg", "theta"),)
     figures = {  # captions: captions.yaml
         "fig_profiles": FigureSpec(figures.fig_profiles, "Silbert et al. 2001, figs. 3-5 (velocity, packing, temperature profiles)"),

@@ -145,6 +145,7 @@ def case_checks(case: ChuteCase, errors: dict) -> list[Check]:
             if steady else why)
     checks.append(Check("bulk -σ_xz/σ_zz / tan θ", "1 (exact in steady uniform flow)",
                         f"{SOURCE}: momentum balance", ratio, se, name, (1.0, 1.0), note=note))
+    checks += acceleration_checks(case, ratio, se, tan, why)
 
     if steady:
         dev, dev_se, n = weight_deviation(case)
@@ -183,6 +184,41 @@ def case_checks(case: ChuteCase, errors: dict) -> list[Check]:
     checks.append(Check("bulk φ", "nearly uniform in the bulk", f"{SOURCE}: packing profile",
                         case.value("phi_bulk") if steady else NAN, se, name, None, note=note))
     return checks
+
+
+def acceleration_checks(case: ChuteCase, ratio: float, se: float, tan: float, why: str) -> list[Check]:
+    """The momentum balance with the bed's acceleration over the window, and that acceleration.
+
+    A bed still creeping at :math:`a` (:func:`~granflow.scenes.chute.analysis.window_acceleration`,
+    in g) balances :math:`-\sigma_{xz}/\sigma_{zz} = \tan\theta - a/\cos\theta`: the comparison
+    is the stress ratio over that, its error the ratio's and the acceleration's in quadrature. The
+    acceleration over :math:`g\sin\theta` (how much it lowers the plain ratio over tan θ) is a diagnostic.
+    """
+    steady = not case.why_not
+    a, a_se = case.value("accel_cm"), case.value("accel_cm_se")
+    cos = math.cos(math.radians(case.theta))
+    if steady and math.isfinite(a) and math.isfinite(ratio):
+        expected = tan - a / cos
+        ours = ratio * tan / expected
+        err = ours * math.hypot(se / ratio if math.isfinite(se) else 0.0, (a_se / cos) / expected)
+        note = (f"the ratio over tan θ ({ratio:.4f}) times tan θ / (tan θ − a/cos θ): a = {a:.3g} ± {a_se:.2g} g, "
+                f"the slope of u_cm over the averaging window ({int(case.value('accel_rows'))} thermo rows, mean "
+                f"u_cm {case.value('u_cm_window'):.4g} √(gd); error scaled by the residuals' statistical "
+                f"inefficiency); the layers above any height carry their weight's share g sin θ − a of the shear, "
+                f"a taken uniform (the bed's mean)")
+        frac = a / math.sin(math.radians(case.theta))
+        a_note = (f"a/(g sin θ) = {frac:+.2%}: the plain ratio over tan θ is lower than the balance by this much; "
+                  f"the steadiness test passed on u_cm's drift per window, this is what remains of it over the "
+                  f"averaging window")
+        frac_se = a_se / math.sin(math.radians(case.theta))
+    else:
+        ours = err = frac = frac_se = NAN
+        note = a_note = why or "no acceleration: no averaging stage in thermo.csv"
+    return [Check("bulk -σ_xz/σ_zz / (tan θ − a/(g cos θ)), a the bed's acceleration",
+                  "1 (exact in uniform flow: the momentum balance)", f"{SOURCE}: momentum balance", ours, err,
+                  case.name, (1.0, 1.0), note=note),
+            Check("u_cm acceleration over the averaging window / (g sin θ)", "0 (steady)",
+                  f"{SOURCE}: steady flow", frac, frac_se, case.name, (0.0, 0.0), note=a_note)]
 
 
 def sweep_checks(loaded: list[ChuteCase], errors: dict[str, dict]) -> list[Check]:

@@ -229,6 +229,7 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
         write_file(outdir / name, write)
     env = environment(None if declared is None else declared.package_dir)
     template = env.get_template(f"{context['scene']}.lmp.j2")
+    context["template_path"] = template_path(template.filename)
     for stage in stages:
         text = template.render(params=params, stage=stage, **context)
         write_text(outdir / f"{stage}.lmp", text)
@@ -236,4 +237,15 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     return record
 
 
-__all__ = ["render_case", "scene_parameters", "PreflightError", "STAGES"]
+def template_path(filename: str) -> str:
+    """Where a scene's template lives, for the deck's header: relative to the project root
+    (``src/granflow/scenes/<scene>/<scene>.lmp.j2``), or ``<package>/<file>`` for a package
+    outside it."""
+    path = Path(filename).resolve()
+    try:
+        return path.relative_to(PROJECT_ROOT).as_posix()
+    except ValueError:
+        return f"{path.parent.name}/{path.name}"
+
+
+__all__ = ["render_case", "scene_parameters", "template_path", "PreflightError", "STAGES"]

@@ -7,7 +7,9 @@ import re
 import jinja2
 import pytest
 
-from granflow.deck import STAGES, environment, render_case
+from granflow import config, registry
+from granflow.config import PROJECT_ROOT
+from granflow.deck import STAGES, environment, render_case, template_path
 
 
 def test_template_has_no_undefined_slack():
@@ -76,3 +78,20 @@ def test_every_rung_passes_skiprun(channel_scene, tmp_path, skiprun, rung):
     """Each stage's deck parses and sets up in LAMMPS (-skiprun skips the runs; the packing check needs a run)."""
     render_case(channel_scene, rung, tmp_path)
     skiprun(tmp_path, STAGES, extra={"init": ["-var", "check_packing", "0"]})
+
+
+@pytest.mark.parametrize("name", registry.names())
+def test_the_header_names_the_real_template(name, tmp_path):
+    """Each deck's header names the template it came from, in the scene's package, by its path in
+    the project (it said lammps_inputs/<scene>.lmp.j2, where no template is)."""
+    scene = config.load_scene(PROJECT_ROOT / "config" / "scenes" / f"{name}.yaml")
+    render_case(scene, "demo", tmp_path)
+    for deck in sorted(tmp_path.glob("*.lmp")):
+        m = re.search(r"^# Rendered by granflow from (\S+); do not edit by hand,$", deck.read_text(), re.M)
+        assert m and m.group(1) == f"src/granflow/scenes/{name}/{name}.lmp.j2", (deck.name, m)
+        assert (PROJECT_ROOT / m.group(1)).is_file()
+
+
+def test_template_path_outside_the_project(tmp_path):
+    """A scene package outside the project (granflow check-scene PATH) is named by its folder."""
+    assert template_path(str(tmp_path / "drum" / "drum.lmp.j2")) == "drum/drum.lmp.j2"

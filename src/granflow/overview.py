@@ -124,7 +124,8 @@ def measured(check: dict) -> bool:
 
 def headlines(summary: dict) -> list[dict]:
     """A scene's headline numbers on the front page, by rule from its record's checks, in the
-    scene's order: one check per quantity, taken from a case that measured it (:func:`measured`; a
+    scene's order: one comparison per quantity (never a consistency check or a diagnostic), taken from a
+    case that measured it (:func:`measured`; a
     quantity no case measured is not a headline), the first compared with a number of the paper, then
     the first from a steady case or the whole sweep, else the first; quantities compared with a number
     before those compared in words, at most :data:`HEADLINES_PER_SCENE`. Readings of one quantity told
@@ -136,7 +137,9 @@ def headlines(summary: dict) -> list[dict]:
         return c.get("paper_range") is None, status.get(c.get("case")) not in (None, STEADY)
 
     first: dict[str, dict] = {}
-    for c in filter(measured, summary.get("checks", [])):
+    # only a comparison with the paper is a headline: a consistency check or a diagnostic carries no verdict
+    compared = [c for c in summary.get("checks", []) if (c.get("kind") or "comparison") == "comparison"]
+    for c in filter(measured, compared):
         q = c.get("quantity", "").split(" (")[0]
         if q not in first or rank(c) < rank(first[q]):
             first[q] = c
@@ -155,8 +158,8 @@ def case_label(case: str, cases: list[str]) -> str:
 def short_verdict(verdict) -> str:
     """A check's verdict (:func:`granflow.validation.verdict`) in a few words: up to its first
     parenthesis, with the number of standard errors where it gives them, e.g.
-    ``differs by -2.0 % (8 σ)``."""
-    text = " ".join(str(verdict or "").split())
+    ``differs by -2.0 % (8 σ)``; one run's difference reads ``1 run: off by -2.8 % (11 σ)``."""
+    text = " ".join(str(verdict or "").split()).replace("one sample: off by", "1 run: off by")
     sigmas = re.search(r"\(([0-9.]+ σ)", text)
     words = text.split(" (")[0]
     return (f"{words} ({sigmas.group(1)})" if sigmas else words) or "–"

@@ -164,13 +164,13 @@ def test_verdicts_in_a_few_words():
     def short(*args, **kw):
         return overview.short_verdict(verdict(*args, **kw)[0])
 
-    assert short(1.343, 0.003, (1.37, 1.40), syst=0.001) == "one sample: off by -2.0 % (9 σ)"
+    assert short(1.343, 0.003, (1.37, 1.40), syst=0.001) == "1 run: off by -2.0 % (9 σ)"
     assert short(1.343, 0.003, (1.37, 1.40), syst=0.001, n_replicates=2) == "differs by -2.0 % (9 σ)"
     assert short(2.886, 0.029, (3.0, 3.0), syst=0.11) == "within error (1.0 σ)"
     assert short(0.628, 0.002, (0.63, 0.63), syst=0.0023) == "within the systematic error"
     assert short(0.59, 0.002, (0.58, 0.62)) == "within the paper's range"
     assert short(0.087, 0.001, None) == "shape compared"
-    assert short(-0.184, 0.047, (0.0, 0.0), syst=0.02) == "one sample: off by -0.184 (4 σ)"
+    assert short(-0.184, 0.047, (0.0, 0.0), syst=0.02) == "1 run: off by -0.184 (4 σ)"
     assert short(float("nan"), 0.1, (1.0, 1.0)) == "not measured"
     assert overview.short_verdict(None) == "–"
     assert overview.verdict_kind("differs by -2.0 % (8 σ with stat and syst)") == "differs"
@@ -333,3 +333,12 @@ def test_the_pictures_stand_in_workflow_names_the_projects_rules():
     assert set(picture_tool.STAND_IN_RULES) <= rules
     text = picture_tool.stand_in_snakefile(["alpha", "beta"])
     assert 'report: "overview.rst"' in text and '"tables/beta.csv",' in text
+
+
+def test_a_diagnostic_is_never_a_headline():
+    summary = {"cases": [{"dir": "x~1", "status": "steady"}],
+               "checks": [{"quantity": "pure power law a", "ours": 0.68, "paper_range": [0.5, 0.5], "case": "sweep",
+                           "kind": "diagnostic", "verdict": "diagnostic: no verdict against the paper"},
+                          {"quantity": "curvature", "ours": 0.1, "paper_range": [0.0, 0.0], "case": "sweep",
+                           "kind": "comparison", "verdict": "within error (1.1 σ)"}]}
+    assert [c["quantity"] for c in overview.headlines(summary)] == ["curvature"]

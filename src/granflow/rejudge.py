@@ -56,6 +56,7 @@ def rejudge(folder: Path, scene_name: str) -> dict:
         c["seeds"] = [o["seed"] for o in summary["cases"]
                       if replicates.base_of(o["dir"]) == replicates.base_of(c["dir"])]
     git = provenance.git_state()
+    summary["paper"] = scene.paper  # cited by authors, year and journal
     summary["checks"] = [asdict(c) for c in checks]
     summary["rejudged"] = {"commit": git["commit"], "date": datetime.date.today().isoformat(), "how": HOW}
     pd.DataFrame(summary["checks"], columns=[f.name for f in fields(Check)]).to_csv(folder / "checks.csv", index=False)

@@ -37,7 +37,7 @@ class ChannelScene(Scene):
     time_unit = "√(d_p/g)"
     snapshot = SnapshotView(color="speed", view=(0.0, 0.0), up=(0.0, 1.0, 0.0), size=(500, 900), zoom=1.0)
     summary = "periodic vertical channel between two flat frictional walls (Debnath, Kesava Rao & Kumaran 2022)"
-    paper = "channel_debnath2022.md"
+    paper = "Debnath, Kesava Rao & Kumaran (2022), J. Fluid Mech., \"Different shear regimes in the dense granular flow in a vertical channel\""
     #: eq. 3.1's a is forced ≈ ln 20 by δ0.95's definition (the scaled profile is 0.95 there); the drift and the
     #: plug's non-affine motion read our own run, the paper gives no number
     check_kinds = {"eq. 3.1 exponent a": "consistency",

@@ -26,7 +26,7 @@ class HeapScene(Scene):
     time_unit = "s"
     snapshot = SnapshotView(color="type", view=(90.0, -90.0), size=(900, 500), zoom=2.2, stages=("flow", "average"))
     summary = "quasi-2D bounded heap filled from one end, inclined base and end wall (Fan et al. 2013)"
-    paper = "heap_fan2013.md"
+    paper = "Fan, Umbanhowar, Ottino & Lueptow (2013), J. Fluid Mech., \"Kinematics of mono- and bidisperse granular flow in quasi-two-dimensional bounded heaps\""
     #: δ is where u = 0.1 u_s, which forces A e^{-k} ≈ 0.1: A is k counted again; the q* exponent fitted over x
     #: inside one case measures how δ thins toward the end wall, not the paper's pooling over feed rates
     check_kinds = {"tail u/u_s = A e^{k z/δ}: prefactor A": "consistency",

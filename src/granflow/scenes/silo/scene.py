@@ -30,7 +30,7 @@ class SiloScene(Scene):
     snapshot = SnapshotView(color="speed", view=(90.0, -90.0), center=(0.5, 0.5, 0.38), size=(600, 900), zoom=2.4,
                             slab_y=0.08)
     summary = "3D flat-bottomed cylindrical silo discharging through a circular orifice (Rubio-Largo et al. 2016)"
-    paper = "silo_rubiolargo2016.md"
+    paper = "Rubio-Largo, Maza & Hidalgo (2016), Comput. Part. Mech., \"Large-scale numerical simulations of polydisperse particle flow in a silo\""
     #: a pure power law cannot return 1/2 over R = 3.8-7.7 mean diameters even where v² = 2γg(R − R0) holds,
     #: and the kernel node is cut by the deletion plane: readings of measurement choices, no verdict; the
     #: paper states no Beverloo C or k; h_c's other reading is not the paper's way

@@ -3,7 +3,8 @@
 Templates hold structure (which walls, fixes, computes and dump columns);
 every number enters as a ``variable ... equal`` line computed here once from the
 validated physical parameters, with its meaning as a comment. Only numbers and
-names from fixed lists reach a deck, never free text from the config.
+names reach a deck, never free text from the config: :mod:`granflow.deck_guard` checks the
+names and numbers before a deck is rendered and every line of it before it is written.
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from postproc.safe_write import write_file, write_text
 from . import registry
 from .config import PROJECT_ROOT
 from .contact import ContactModel
+from .deck_guard import DeckError, check_context, check_deck, check_name, template_commands
 from .preflight import PreflightError
 
 #: shared include snippets; each scene's templates live in its package
@@ -217,21 +219,31 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     the registry's. Each file is written under a temporary name and moved into place
     (:mod:`postproc.safe_write`): a link at its name is replaced, never written through.
 
+    The rung's name, every name and number of the context and every line of each deck are
+    checked (:mod:`granflow.deck_guard`) before anything is written: a
+    :class:`~granflow.deck_guard.DeckError` names what may not reach a deck.
+
     Returns the parameter record (also written to ``params.json``).
     """
+    check_name("rung", rung_name)
     params, context = scene_parameters(scene, rung_name, case, declared)
     record = context.pop("record")
     stages = context.pop("stages", STAGES)
     data_files = context.pop("data_files", {})
+    env = environment(None if declared is None else declared.package_dir)
+    template = env.get_template(f"{check_name('scene', context['scene'])}.lmp.j2")
+    context["template_path"] = template_path(template.filename)
+    check_context(params, context)
+    allowed = template_commands(env, template.name)
+    decks = {}
+    for stage in stages:
+        decks[stage] = template.render(params=params, stage=check_name("stage", stage), **context)
+        check_deck(decks[stage], allowed, f"{stage}.lmp of {context['scene']} at rung {rung_name}")
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     for name, write in data_files.items():
         write_file(outdir / name, write)
-    env = environment(None if declared is None else declared.package_dir)
-    template = env.get_template(f"{context['scene']}.lmp.j2")
-    context["template_path"] = template_path(template.filename)
-    for stage in stages:
-        text = template.render(params=params, stage=stage, **context)
+    for stage, text in decks.items():
         write_text(outdir / f"{stage}.lmp", text)
     write_text(outdir / "params.json", json.dumps(record, indent=2, sort_keys=True) + "\n")
     return record
@@ -248,4 +260,4 @@ def template_path(filename: str) -> str:
         return f"{path.parent.name}/{path.name}"
 
 
-__all__ = ["render_case", "scene_parameters", "template_path", "PreflightError", "STAGES"]
+__all__ = ["render_case", "scene_parameters", "template_path", "PreflightError", "DeckError", "STAGES"]

@@ -187,10 +187,15 @@ class SiloScene(Scene):
         return validation(Path(scene_dir), cases)
 
     def profile_checks(self, profiles):
-        """v_c² linear in R (the paper's √R with Beverloo's offset) from the record's ``sweep`` profile."""
-        from .linearity import linearity_checks
+        """Every check made from the record's profiles alone (:func:`~granflow.scenes.silo.profile_checks.profile_checks`:
+        v_c² linear in R, the orifice collapse, the axis pressures, the sizes, the kernel width); the species'
+        radii, which the profiles do not list, from ``config/scenes/silo.yaml``."""
+        from granflow.config import PROJECT_ROOT, load_scene
 
-        return linearity_checks(profiles.get("sweep"))
+        from .profile_checks import profile_checks
+
+        scene = load_scene(PROJECT_ROOT / "config" / "scenes" / f"{self.name}.yaml")
+        return profile_checks(profiles, radii=scene["particles"]["radius_fractions"])
 
     # -- the error-versus-cost study -------------------------------------------------------
     def observables(self, case_dir, record, t_average, block=None):

@@ -40,7 +40,7 @@ from granflow.validation import Check, ValidationResult, concat_profiles, read_c
 from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.silo.analysis as sl
-from .linearity import linearity_checks
+from .profile_checks import profile_checks
 
 #: the silo scene's headline keys (``SiloScene.headline``) and, per key, the analysis's own error
 HEADLINE_FALLBACK = {"W_f": "W_f_se", "profile_deviation": None, "h_c_over_R": "h_c_over_R_se"}
@@ -584,6 +584,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
     for make in (surface_rate_check, profile_check, transition_check, bulk_check, partial_check, contact_check):
         checks += [make(c) for c in loaded]
     kept = profiles(loaded)
-    # the paper's √R in its own form, from the per-orifice readings the record keeps (SiloScene.profile_checks)
-    checks += linearity_checks(kept.get("sweep"))
+    # the checks made from the profiles the record keeps, by the code that judges a committed record again
+    r_b = loaded[0].record["r_b"] if loaded else float("nan")
+    checks += profile_checks(kept, [s["radius"] / r_b for s in loaded[0].record["species"]] if loaded else None)
     return ValidationResult(checks=checks, profiles=kept, figures=list(FIGURES), differences=differences(loaded))

@@ -201,10 +201,12 @@ class HeapScene(Scene):
 
     # -- the validation record -------------------------------------------------------------
     def profile_checks(self, profiles):
-        """δ/d̄ ∝ q*^a across feed rates at fixed x/L, from the record's ``streamwise`` profile."""
-        from .qstar import across_feed_rates
+        """The checks made from the record's profiles (streamwise, collapse, surface): Figs. 6-11 in the
+        paper's form and δ/d̄ ∝ q*^a across feed rates (:func:`granflow.scenes.heap.profile_checks.profile_checks`,
+        which validation() calls too)."""
+        from .profile_checks import profile_checks
 
-        return across_feed_rates(profiles.get("streamwise"))
+        return profile_checks(profiles)
 
     def validation(self, scene_dir, cases):
         """Fan et al. (2013) against the cases: :func:`granflow.scenes.heap.validation.validation`."""

@@ -9,7 +9,8 @@ Checks per case: the dynamic angle of repose α (the paper states it for the 1/2
 flowing-layer thickness in local mean diameters, δ/d̄ (6-7 d, section 3.2.2); the prefactor and
 the exponent of the exponential tail u/u_s = 2.4 e^{3.3 z/δ} (figure 7b); the spread of the three
 δ methods (they agree, figure 6d); for a mixture, the small particles' deposit upstream (figure 3).
-Over the sweep: the exponent of δ/d̄ ∝ q*^a (a ≈ 0.22, figure 11).
+Over the sweep: the exponent of δ/d̄ ∝ q*^a (a ≈ 0.22, figure 11). From the kept profiles,
+:func:`granflow.scenes.heap.profile_checks.profile_checks` (figures 6-11 in the paper's form).
 
 Errors are one standard error of ours. The headline numbers (α, δ/d̄, the tail exponent) carry the
 correlation-aware error of :func:`granflow.headline.measure_with_errors`, which re-analyses
@@ -32,7 +33,7 @@ from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.heap.analysis as hp
 from .pipeline import mixture_mean_diameter
-from .qstar import across_feed_rates
+from .profile_checks import profile_checks
 
 #: the heap scene's headline keys (``HeapScene.headline``) and, per key, the analysis's own error
 HEADLINE_FALLBACK = {"alpha": "alpha_se", "delta_over_d": None, "tail_exponent": "tail_k_se"}
@@ -565,6 +566,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
             checks += made if isinstance(made, list) else [made]
     checks.append(q_star_check(loaded))
     kept = profiles(loaded)
-    # the paper's pooling: across feed rates at fixed x/L, from the profile the record keeps (HeapScene.profile_checks)
-    checks += across_feed_rates(kept.get("streamwise"))
+    # the checks made from the profiles the record keeps (HeapScene.profile_checks: the same code judges a
+    # committed record): kinematics along the heap, the collapse, w, the surface, across feed rates, q*
+    checks += profile_checks(kept)
     return ValidationResult(checks=checks, profiles=kept, figures=list(FIGURES), differences=differences(loaded))

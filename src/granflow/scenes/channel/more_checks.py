@@ -23,7 +23,9 @@ across the lower and the higher :math:`\\bar\\phi` at one W (:func:`sweep_more_c
 * fig. 5(d): :math:`\\delta_{0.95}` falls as :math:`\\bar\\phi` rises;
 * fig. 8(a): the plug (:math:`\\phi \\ge 0.63`) thins as :math:`\\bar\\phi` falls;
 * figs. 6, 7(a): :math:`\\sigma_{xx}` rises with :math:`\\bar\\phi`; fig. 7(b): :math:`\\mu_{wall}` falls;
-* fig. 8(c): T in the shearing zones falls as :math:`\\bar\\phi` rises; in the plug it is independent of it.
+* fig. 8(c): T in the shearing zones falls as :math:`\\bar\\phi` rises; in the plug it is independent of it;
+* fig. 13: :math:`p_\\phi = \\sigma_{xx}/T` and :math:`\\mu_\\phi = \\sigma_{xy}/(T^{1/2} du/dx)` of the loose
+  zone's bins of both cases diverge as :math:`(\\phi_{ad} - \\phi)^{-1}` at :math:`\\phi_{ad} = 0.59 \\pm 0.002`.
 
 Where a measurement has a free choice (a fit range, a zone edge) the same number is measured each
 other way and the largest shift is its systematic error (:func:`granflow.validation.systematic`).
@@ -70,9 +72,13 @@ Q_SXX_PHI = "σ_xx at the higher φ̄ over σ_xx at the lower φ̄"
 Q_MU_WALL = "μ_wall at the higher φ̄ minus at the lower φ̄"
 Q_T_SHEAR = "T in the shearing zones at the higher φ̄ over at the lower φ̄"
 Q_T_PLUG = "T in the plug at the higher φ̄ over at the lower φ̄"
+Q_PAD_P = "φ_ad where p_φ = σ_xx/T diverges as (φ_ad − φ)⁻¹, loose zone"
+Q_PAD_MU = "φ_ad where μ_φ = σ_xy/(T^½ du/dx) diverges as (φ_ad − φ)⁻¹, loose zone"
+#: the paper's divergence of the loose zone's coefficients (§3.2, fig. 13): φ_ad = 0.59 ± 0.002
+PHI_AD_FIT, PHI_AD_FIT_ERROR = 0.59, 0.002
 #: every quantity this module writes (paper_results.yaml's compared_by names them)
 QUANTITIES = (Q_SXX, Q_SXY, Q_SPIN, Q_SQRT_T, Q_LOG_PHI, Q_UCM, Q_USLIP, Q_UMAX, Q_DELTA, Q_PLUG, Q_SXX_PHI,
-              Q_MU_WALL, Q_T_SHEAR, Q_T_PLUG)
+              Q_MU_WALL, Q_T_SHEAR, Q_T_PLUG, Q_PAD_P, Q_PAD_MU)
 INDEPENDENT = "bins taken as independent, each with its correlation-aware time-average error"
 
 
@@ -462,6 +468,63 @@ def _pair_checks(low, high) -> list[Check]:
                           f"in what the paper calls the dense shearing zone), x = {edge_out:.3g} d_p, {pair}; "
                           f"{INDEPENDENT}, error scaled by √(χ²/ν) when above 1 (a plug that samples one "
                           f"configuration scatters)"))
+    return out + divergence_checks([low, high], name, pair)
+
+
+def loose_coefficients(a: ChannelAnalysis, x_from: float = 0.0) -> pd.DataFrame:
+    """Per loose-zone bin (``zones.labels == "loose"``, :math:`x \\ge` ``x_from``): φ, the kinetic-theory
+    coefficients :math:`p_\\phi = \\sigma_{xx}/T` (B8) and :math:`\\mu_\\phi = |\\sigma_{xy}|/(T^{1/2}|du/dx|)` (B9),
+    and their relative errors (the bins' errors independent)."""
+    x = a.folded["x"].to_numpy(float)
+    phi = a.folded["phi"].to_numpy(float)
+    sxx, sxx_se = _column(a, "sigma_xx")
+    sxy, sxy_se = _column(a, "sigma_xy")
+    T, T_se = _column(a, "T")
+    gd, gd_se = a.rheo["gamma_dot"].to_numpy(float), a.rheo["gamma_dot_se"].to_numpy(float)
+    keep = (a.zones.labels == "loose") & (x >= x_from)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p = sxx / T
+        mu = np.abs(sxy) / (np.sqrt(T) * np.abs(gd))
+        p_rel = np.hypot(sxx_se / sxx, T_se / T)
+        mu_rel = np.sqrt((sxy_se / sxy) ** 2 + (0.5 * T_se / T) ** 2 + (gd_se / gd) ** 2)
+    return pd.DataFrame({"phi": phi, "p_phi": p, "p_phi_rel": p_rel, "mu_phi": mu, "mu_phi_rel": mu_rel})[keep]
+
+
+def divergence_point(phi, coefficient, rel_error) -> dict:
+    """:math:`\\phi_{ad}` of :math:`c = A/(\\phi_{ad} - \\phi)`: a weighted line :math:`1/c = a_0 + a_1\\phi`
+    (errors of :math:`1/c` its relative ones), :math:`\\phi_{ad} = -a_0/a_1` with its error by the delta method
+    (χ²-scaled); ``n`` points, ``chi2_nu``."""
+    phi, c, rel = (np.asarray(v, float) for v in (phi, coefficient, rel_error))
+    ok = np.isfinite(phi) & np.isfinite(c) & (c > 0) & np.isfinite(rel)
+    coef, cov, chi2_nu, nu = weighted_polyfit(phi[ok], 1.0 / c[ok], rel[ok] / c[ok], 1)
+    if nu < 1 or not np.all(np.isfinite(coef)) or coef[1] == 0:
+        return {"phi_ad": NAN, "se": NAN, "n": int(ok.sum()), "chi2_nu": NAN}
+    jac = np.array([-1.0 / coef[1], coef[0] / coef[1] ** 2])
+    return {"phi_ad": float(-coef[0] / coef[1]), "se": float(math.sqrt(jac @ cov @ jac)), "n": int(ok.sum()),
+            "chi2_nu": chi2_nu}
+
+
+def divergence_checks(cases: list, name: str, pair: str) -> list[Check]:
+    """:math:`\\phi_{ad}` from :math:`p_\\phi` and from :math:`\\mu_\\phi` over the loose-zone bins of ``cases``
+    (the paper fits across its φ̄), the outermost loose bin left out as the variant."""
+    out = []
+    tables = [loose_coefficients(c.analysis) for c in cases]
+    inner = [loose_coefficients(c.analysis, WALL_LAYER + 1.0) for c in cases]
+    for q, key, label in ((Q_PAD_P, "p_phi", "p_φ = σ_xx/T (eq. B8)"),
+                          (Q_PAD_MU, "mu_phi", "μ_φ = |σ_xy|/(T^½|du/dx|) (eq. B9)")):
+        both, deeper = pd.concat(tables), pd.concat(inner)
+        fit = divergence_point(both["phi"], both[key], both[f"{key}_rel"])
+        alt = divergence_point(deeper["phi"], deeper[key], deeper[f"{key}_rel"])["phi_ad"]
+        syst, text = systematic(fit["phi_ad"], {"from 3 d_p (the outermost loose bin left out)": alt})
+        span = f"{both['phi'].min():.3g}-{both['phi'].max():.3g}" if len(both) else "none"
+        out.append(Check(q, "0.59 ± 0.002 (p_φ, μ_φ; inclined plane 0.585 ± 0.005)", "§3.2, fig. 13; conclusion (ix)",
+                         fit["phi_ad"], fit["se"], name, (PHI_AD_FIT, PHI_AD_FIT), paper_error=PHI_AD_FIT_ERROR,
+                         syst=syst, variants=text,
+                         note=f"{label} of the {fit['n']} loose-zone bins (2 d_p ≤ x, φ < 0.587) of {pair}, φ = "
+                              f"{span}: a weighted line through 1/{key.replace('_phi', '_φ')} against φ crosses zero "
+                              f"at φ_ad (the paper's fit ∝ (φ_ad − φ)⁻¹ across its φ̄); χ²/ν = {fit['chi2_nu']:.2g}; "
+                              f"{INDEPENDENT}, error scaled by √(χ²/ν) when above 1. The loose zone ends at the "
+                              f"paper's φ_ad = 0.587 by definition, so the fit extrapolates beyond its bins"))
     return out
 
 

@@ -45,7 +45,8 @@ def build_profile(phi=saturating_phi, u_scale=1.0, delta=5.0, sxx=lambda xw: 50.
     u: eq. 3.1 (u_slip 1, u_max 1.4, times ``u_scale``; δ-like length ``delta``); φ from ``phi``; σ_xx from
     ``sxx``; σ_xy = ``sxy_factor`` × g∫_x^{W/2} φ dx (eq. B2, the bin rule of ``column_from_centre``);
     Ω_z = ``spin`` × ω_z (``spin_wall`` in the wall bins); T = (γ̇/r)² with d_p γ̇/√T = ``r_of_x`` in the
-    shearing zone, ``t_plug`` (if given) in the plug, where φ ≥ 0.63, ``t_loose(phi, sigma_xx)`` (if given)
+    shearing zone, ``t_plug`` (a number or a function of x, if given) in the plug, where φ ≥ 0.63,
+    ``t_loose(phi, sigma_xx)`` (if given)
     where φ < 0.587; u_y's standard error ``u_se``.
     """
     u = u_scale * (1.0 + 0.4 * (1.0 - np.exp(-3.0 * XW / delta)))
@@ -65,7 +66,8 @@ def build_profile(phi=saturating_phi, u_scale=1.0, delta=5.0, sxx=lambda xw: 50.
     with np.errstate(divide="ignore"):
         T_half = (gd / r_of_x(first.folded["x"].to_numpy(float))) ** 2
     if t_plug is not None:
-        T_half = np.where(first.folded["phi"].to_numpy(float) >= 0.63, t_plug, T_half)
+        plug_t = t_plug(first.folded["x"].to_numpy(float)) if callable(t_plug) else t_plug
+        T_half = np.where(first.folded["phi"].to_numpy(float) >= 0.63, plug_t, T_half)
     if t_loose is not None:
         phi_half = first.folded["phi"].to_numpy(float)
         T_half = np.where(phi_half < 0.587, t_loose(phi_half, first.folded["sigma_xx"].to_numpy(float)), T_half)
@@ -105,10 +107,17 @@ def by(checks, quantity):
 
 
 # ------------------------------------------------------------------------- per case
+def conducting_plug(l_c):
+    """T in the plug from eq. B13 with zero flux at the centre: T^{3/2} = 1e-9 cosh((W/2 − x)/l_c)."""
+    return lambda x: (1e-9 * np.cosh((W / 2 - x) / l_c)) ** (2.0 / 3.0)
+
+
 def test_a_case_built_on_the_papers_physics_passes_every_check(tmp_path):
-    case = make_case(tmp_path, "W~30/phi~0.6", build_profile(), thermo=thermo_with(0.004))
+    case = make_case(tmp_path, "W~30/phi~0.6", build_profile(t_plug=conducting_plug(11.5)), thermo=thermo_with(0.004))
     checks = {c.quantity: c for c in mc.case_more_checks(case)}
-    assert set(checks) == {mc.Q_SXX, mc.Q_SXY, mc.Q_SPIN, mc.Q_SQRT_T, mc.Q_LOG_PHI, mc.Q_UCM}
+    assert set(checks) == {mc.Q_SXX, mc.Q_SXY, mc.Q_SPIN, mc.Q_SQRT_T, mc.Q_LOG_PHI, mc.Q_UCM, mc.Q_LC}
+    # the plug's T built on eq. B13 with l_c = 11.5 d_p (from x = 11, where φ reaches 0.63, to the centre)
+    assert checks[mc.Q_LC].ours == pytest.approx(11.5, rel=1e-4)
     # σ_xx flat: the line's change is 0 to rounding (errors 1e-3 of 50)
     assert checks[mc.Q_SXX].ours == pytest.approx(0.0, abs=1e-12)
     # σ_xy built as exactly g∫ρ dx: b = 1
@@ -133,6 +142,7 @@ def test_profiles_against_the_paper_fail(tmp_path):
     # σ_xx rising 2 per d_p towards the centre, σ_xy 1.3 times the weight, particles spinning at 0.3 ω,
     # d_p γ̇/√T falling from 2 in the wall bin to 1 beyond, φ exponential (Barker et al.'s form), u_cm fluctuating by 3 %
     bad = build_profile(phi=exponential_phi, sxx=lambda xw: 50.0 + 2.0 * xw, sxy_factor=1.3, spin=0.3,
+                        t_plug=conducting_plug(4.0),
                         r_of_x=lambda xw: np.where(xw < 1.0, 2.0, 1.0))
     case = make_case(tmp_path, "W~30/phi~0.6", bad, thermo=thermo_with(0.03))
     checks = {c.quantity: c for c in mc.case_more_checks(case)}
@@ -143,7 +153,8 @@ def test_profiles_against_the_paper_fail(tmp_path):
     assert checks[mc.Q_SQRT_T].ours == pytest.approx(-1.0, rel=1e-6)
     # an exactly exponential φ leaves no curvature: p = 1
     assert checks[mc.Q_LOG_PHI].ours == pytest.approx(1.0)
-    for q in (mc.Q_SXX, mc.Q_SXY, mc.Q_SPIN, mc.Q_SQRT_T, mc.Q_LOG_PHI, mc.Q_UCM):
+    assert checks[mc.Q_LC].ours == pytest.approx(4.0, rel=1e-4)   # a plug conducting over 4 d_p, not 11.5
+    for q in (mc.Q_SXX, mc.Q_SXY, mc.Q_SPIN, mc.Q_SQRT_T, mc.Q_LOG_PHI, mc.Q_UCM, mc.Q_LC):
         assert checks[q].verdict.startswith("one sample: off by"), (q, checks[q].ours, checks[q].verdict)
 
 

@@ -16,6 +16,8 @@ per case (:func:`case_more_checks`)
 * fig. 12: :math:`-\\ln\\phi` is not linear in :math:`x` in the shearing zone "even if the first two or
   three points are excluded" — the p-value of the quadratic term of a weighted fit (paper: < 0.05);
 * fig. 3: :math:`u_{cm}` varies by less than 1 % (relative standard deviation over the window);
+* fig. 8(c), eq. (B13): T in the plug follows :math:`T^{3/2} \\propto \\cosh((W/2 - x)/l_c)` with
+  :math:`l_c \\approx 11.5\\,d_p`;
 
 across the lower and the higher :math:`\\bar\\phi` at one W (:func:`sweep_more_checks`)
 
@@ -64,6 +66,9 @@ Q_SPIN = "Ω_z/ω_z in the dense and loose shearing zones"
 Q_SQRT_T = "d_p(du/dx)/√T: rise from the wall bin to the next"
 Q_LOG_PHI = "−ln φ linear in x in the shearing zone: p-value of curvature"
 Q_UCM = "u_cm relative standard deviation over the averaging window"
+Q_LC = "conduction length l_c of eq. B13 in the plug"
+#: the paper's conduction length, fig. 8(c) (W = 100 d_p)
+CONDUCTION_LENGTH = 11.5
 Q_USLIP = "u_slip at the lower φ̄ over u_slip at the higher φ̄"
 Q_UMAX = "u_max at the lower φ̄ over u_max at the higher φ̄"
 Q_DELTA = "δ0.95 at the higher φ̄ over δ0.95 at the lower φ̄"
@@ -77,7 +82,7 @@ Q_PAD_MU = "φ_ad where μ_φ = σ_xy/(T^½ du/dx) diverges as (φ_ad − φ)⁻
 #: the paper's divergence of the loose zone's coefficients (§3.2, fig. 13): φ_ad = 0.59 ± 0.002
 PHI_AD_FIT, PHI_AD_FIT_ERROR = 0.59, 0.002
 #: every quantity this module writes (paper_results.yaml's compared_by names them)
-QUANTITIES = (Q_SXX, Q_SXY, Q_SPIN, Q_SQRT_T, Q_LOG_PHI, Q_UCM, Q_USLIP, Q_UMAX, Q_DELTA, Q_PLUG, Q_SXX_PHI,
+QUANTITIES = (Q_SXX, Q_SXY, Q_SPIN, Q_SQRT_T, Q_LOG_PHI, Q_UCM, Q_LC, Q_USLIP, Q_UMAX, Q_DELTA, Q_PLUG, Q_SXX_PHI,
               Q_MU_WALL, Q_T_SHEAR, Q_T_PLUG, Q_PAD_P, Q_PAD_MU)
 INDEPENDENT = "bins taken as independent, each with its correlation-aware time-average error"
 
@@ -221,6 +226,34 @@ def ucm_fluctuation(thermo: pd.DataFrame, detrend: bool = False) -> tuple[float,
     return rel, rel * math.sqrt((g if math.isfinite(g) else 1.0) / (2.0 * len(p)))
 
 
+def conduction_length(a: ChannelAnalysis, x_from: float) -> dict:
+    """``l_c`` of eq. (B13)'s solution with zero flux at the centre, :math:`T^{3/2} = T_c^{3/2}\\cosh((W/2 - x)/l_c)`,
+    fitted (:func:`scipy.optimize.curve_fit`, weighted by the error of :math:`T^{3/2}`, covariance scaled by
+    :math:`\\max(1, \\chi^2/\\nu)`) over the folded bins with :math:`x \\ge` ``x_from``; ``n``, ``chi2_nu``."""
+    from scipy.optimize import curve_fit
+
+    x = a.folded["x"].to_numpy(float)
+    T, T_se = _column(a, "T")
+    keep = (x >= x_from) & np.isfinite(T) & (T > 0) & np.isfinite(T_se) & (T_se > 0)
+    nan = {"l_c": NAN, "se": NAN, "n": int(keep.sum()), "chi2_nu": NAN}
+    if keep.sum() < 4:
+        return nan
+    d, y, y_se = 0.5 * a.W - x[keep], T[keep] ** 1.5, 1.5 * np.sqrt(T[keep]) * T_se[keep]
+
+    def model(d, amplitude, inverse_length):
+        return amplitude * np.cosh(d * inverse_length)
+
+    try:
+        popt, pcov = curve_fit(model, d, y, p0=[float(y.min()), 0.1], sigma=y_se, absolute_sigma=True,
+                               bounds=([0.0, 0.0], [np.inf, 10.0]))
+    except (RuntimeError, ValueError):
+        return nan
+    chi2_nu = float(np.sum(((model(d, *popt) - y) / y_se) ** 2) / (len(y) - 2))
+    k, k_se = popt[1], math.sqrt(pcov[1, 1] * max(1.0, chi2_nu))
+    return {"l_c": 1.0 / k if k > 0 else INF, "se": k_se / k**2 if k > 0 else NAN, "n": int(len(y)),
+            "chi2_nu": chi2_nu}
+
+
 def case_more_checks(case) -> list[Check]:
     """This module's per-case rows for one :class:`.validation.ChannelCase` ([] without an analysis)."""
     a: ChannelAnalysis | None = case.analysis
@@ -295,6 +328,18 @@ def case_more_checks(case) -> list[Check]:
                           f"the paper's plug edge), its quadratic term t-tested (ν = n − 3, error scaled by √(χ²/ν) "
                           f"when above 1, so structure that scatters the bins does not count as curvature); ours is "
                           f"the largest p of the paper's three exclusions: {readings}. {INDEPENDENT}"))
+
+    edge = a.zones.x_plug_phi063
+    lc = conduction_length(a, edge) if math.isfinite(edge) else {"l_c": NAN, "se": NAN, "n": 0, "chi2_nu": NAN}
+    syst, text = systematic(lc["l_c"], {"from 2 d_p beyond the plug edge": conduction_length(a, edge + WALL_LAYER)["l_c"]
+                                        if math.isfinite(edge) else NAN})
+    out.append(Check(Q_LC, "≈ 11.5 d_p (fits of eq. B13 to the plug's T, W = 100 d_p)", "§3.2, fig. 8(c); eq. (B13)",
+                     lc["l_c"], lc["se"], name, (CONDUCTION_LENGTH, CONDUCTION_LENGTH), unit="d_p", syst=syst,
+                     variants=text,
+                     note=f"T^(3/2) = T_c^(3/2) cosh((W/2 − x)/l_c) (eq. B13 with zero flux at the centre, the paper's "
+                          f"fit) over the {lc['n']} folded bins from where φ reaches 0.63 (x = {edge:.3g} d_p) to the "
+                          f"centre; χ²/ν = {lc['chi2_nu']:.2g}; {INDEPENDENT}, error scaled by √(χ²/ν) when above 1. "
+                          f"The paper's plug at W = 100 d_p is wider than ours at W = {a.W:g} d_p"))
 
     phi_mean = float(case.record["parameters"]["phi_mean"])
     thermo_path = case.path / "run" / "thermo.csv"

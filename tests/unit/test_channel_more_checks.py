@@ -1,6 +1,6 @@
-"""The channel's further checks against Debnath et al. (2022) (granflow.scenes.channel.more_checks) on
-hand-made symmetric profiles with known fields: each check recovers the number it was built with, and
-passes or fails against the paper as the built-in physics says it must."""
+"""The channel's further checks against Debnath et al. (2022) (granflow.scenes.channel.more_checks and
+.kinetic_checks) on hand-made symmetric profiles with known fields: each check recovers the number it was
+built with, and passes or fails against the paper as the built-in physics says it must."""
 from __future__ import annotations
 
 import json
@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 import yaml
 
+import granflow.scenes.channel.kinetic_checks as kc
 import granflow.scenes.channel.more_checks as mc
 from granflow import coverage
 from granflow.scenes.channel.analysis import analyse_profile
@@ -204,7 +205,7 @@ def test_the_trends_with_phi_bar_are_read_across_the_two_cases(tmp_path):
     cases = pair(tmp_path)
     checks = {c.quantity: c for c in mc.sweep_more_checks(cases)}
     assert set(checks) == {mc.Q_USLIP, mc.Q_UMAX, mc.Q_DELTA, mc.Q_PLUG, mc.Q_SXX_PHI, mc.Q_MU_WALL,
-                           mc.Q_T_SHEAR, mc.Q_T_PLUG, mc.Q_PAD_P, mc.Q_PAD_MU}
+                           mc.Q_T_SHEAR, mc.Q_T_PLUG}
     assert {c.case for c in checks.values()} == {"W~30/phi~0.6 vs W~30/phi~0.61"}
     # speeds built 1/0.8 apart (u_slip also by the shorter layer: the wall bin's centre lies further into it)
     low, high = (c.analysis.scales for c in cases)
@@ -223,9 +224,7 @@ def test_the_trends_with_phi_bar_are_read_across_the_two_cases(tmp_path):
     # linearly: within a tenth of a bin of the curve's), a plug 2 × 4.4 d_p wider at the higher φ̄
     assert checks[mc.Q_PLUG].ours == pytest.approx(2 * 2.0 * math.log(9.0), abs=0.2)
     assert checks[mc.Q_DELTA].ours < 1
-    for q, c in checks.items():
-        if q in (mc.Q_PAD_P, mc.Q_PAD_MU):   # T not built to diverge here: test_the_divergence_at_phi_ad
-            continue
+    for c in checks.values():
         assert c.verdict in ("equal", "within the paper's range") or c.verdict.startswith(("within error",
                                                                                           "not resolved")), \
             (c.quantity, c.ours, c.verdict)
@@ -265,7 +264,7 @@ def test_the_pending_table_names_exactly_these_checks():
     path = Path(mc.__file__).with_name("paper_results_pending.yaml")
     pending = yaml.safe_load(path.read_text(encoding="utf-8"))
     named = {q for rows in pending["compared_by"].values() for q in rows}
-    assert named == set(mc.QUANTITIES)
+    assert named == set(mc.QUANTITIES) | set(kc.QUANTITIES)
     ids = {e["id"] for e in coverage.load(coverage.paper_results_path("channel"))["results"]}
     assert set(pending["compared_by"]) <= ids
     json.dumps(pending)   # plain data
@@ -283,7 +282,7 @@ def test_the_table_with_the_pending_rows_is_valid_and_counts_them():
             entry["compared_by"] = list(entry.get("compared_by", [])) + pending["compared_by"][entry["id"]]
             entry.pop("not_compared", None)
     coverage.validate(merged, "merged")
-    record = [{"quantity": q, "kind": "comparison"} for q in mc.QUANTITIES]
+    record = [{"quantity": q, "kind": "comparison"} for q in mc.QUANTITIES + kc.QUANTITIES]
     n, m, _ = coverage.count(merged["results"], record)
     assert (n, m) == (len(pending["compared_by"]), len(table["results"]))
 
@@ -300,34 +299,48 @@ def test_a_profile_without_stress_spin_or_temperature_gives_nan_rows(tmp_path):
 
 def test_divergence_point_of_a_known_curve():
     phi = np.linspace(0.53, 0.585, 6)
-    fit = mc.divergence_point(phi, 2.0 / (0.59 - phi), np.full(6, 0.01))
+    fit = kc.divergence_point(phi, 2.0 / (0.59 - phi), np.full(6, 0.01))
     assert fit["phi_ad"] == pytest.approx(0.59, abs=1e-12) and fit["n"] == 6
     # the error is the 1 % errors' (no residual scatter to widen it): 1/c known to 1 % near φ_ad, where it is
     # 0.0025, moves the crossing by ~1 % of its distance 0.005 from the last point: of order 5e-5
     assert 1e-5 < fit["se"] < 2e-4
 
 
-def loose_pair(tmp_path, phi_ad):
+def loose_pair(tmp_path, phi_ad, factor_high=1.0):
     """φ̄ = 0.60 and 0.61 with wide loose zones (φ = 0.64 − 0.15 e^{−x/L} reaches 0.587 at x = 6.2 and 4.1 d_p)
-    and T making p_φ = σ_xx/T = 2/(φ_ad − φ) there."""
-    def t_loose(phi, sxx):
-        return sxx * (phi_ad - phi) / 2.0
+    and T making p_φ = σ_xx/T = 2/(φ_ad − φ) there (``factor_high`` times that at the higher φ̄)."""
+    def t_loose(phi, sxx, factor=1.0):
+        return sxx * (phi_ad - phi) / (2.0 * factor)
     low = build_profile(phi=lambda xw: saturating_phi(xw, drop=0.15, length=6.0), t_loose=t_loose)
-    high = build_profile(phi=lambda xw: saturating_phi(xw, drop=0.15, length=4.0), t_loose=t_loose, u_scale=0.8,
+    high = build_profile(phi=lambda xw: saturating_phi(xw, drop=0.15, length=4.0),
+                         t_loose=lambda phi, sxx: t_loose(phi, sxx, factor_high), u_scale=0.8,
                          sxx=lambda xw: 60.0 + 0.0 * xw)
     return [make_case(tmp_path, "W~30/phi~0.6", low, 0.60), make_case(tmp_path, "W~30/phi~0.61", high, 0.61)]
 
 
 def test_the_divergence_at_phi_ad(tmp_path):
-    checks = {c.quantity: c for c in mc.sweep_more_checks(loose_pair(tmp_path, 0.59))}
-    p = checks[mc.Q_PAD_P]
+    checks = {c.quantity: c for c in kc.kinetic_checks(loose_pair(tmp_path, 0.59))}
+    assert set(checks) == set(kc.QUANTITIES)
+    p = checks[kc.Q_PAD_P]
     assert p.ours == pytest.approx(0.59, abs=1e-9) and p.paper_error == 0.002
     assert p.verdict in ("equal",) or p.verdict.startswith("within"), p.verdict
     assert "of the 7 loose-zone bins" in p.note   # x = 2..6 at φ̄ = 0.60, x = 2..3 at 0.61
     # μ_φ follows from the same fields: its φ_ad is whatever they give, measured the same way
-    lows = pd.concat([mc.loose_coefficients(c.analysis) for c in loose_pair(tmp_path / "again", 0.59)])
-    fit = mc.divergence_point(lows["phi"], lows["mu_phi"], lows["mu_phi_rel"])
-    assert checks[mc.Q_PAD_MU].ours == pytest.approx(fit["phi_ad"], rel=1e-12)
+    lows = pd.concat([kc.loose_coefficients(c.analysis) for c in loose_pair(tmp_path / "again", 0.59)])
+    fit = kc.divergence_point(lows["phi"], lows["mu_phi"], lows["mu_phi_rel"])
+    assert checks[kc.Q_PAD_MU].ours == pytest.approx(fit["phi_ad"], rel=1e-12)
     # a divergence at 0.62 (beyond random close packing's reach in the paper) fails
-    far = {c.quantity: c for c in mc.sweep_more_checks(loose_pair(tmp_path / "far", 0.62))}[mc.Q_PAD_P]
+    far = {c.quantity: c for c in kc.kinetic_checks(loose_pair(tmp_path / "far", 0.62))}[kc.Q_PAD_P]
     assert far.ours == pytest.approx(0.62, abs=1e-9) and far.verdict.startswith("one sample: off by +5.1 %"), far.verdict
+
+
+def test_the_loose_zone_coefficients_collapse_on_phi(tmp_path):
+    # both φ̄ built on one p_φ(φ) = 2/(0.59 − φ): at equal φ the ratio is 1 (1/p_φ is linear in φ, so the
+    # interpolation is exact); the higher φ̄'s loose bins (x = 2, 3: φ = 0.562, 0.581) lie within the lower's
+    same = {c.quantity: c for c in kc.kinetic_checks(loose_pair(tmp_path, 0.59))}[kc.Q_COLLAPSE_P]
+    assert same.ours == pytest.approx(1.0, rel=1e-9)
+    assert same.verdict == "equal" or same.verdict.startswith("within"), same.verdict
+    assert "over the 2 loose-zone bins of the higher φ̄" in same.note
+    # p_φ 1.5 times higher at the higher φ̄: not a function of φ alone
+    apart = {c.quantity: c for c in kc.kinetic_checks(loose_pair(tmp_path / "apart", 0.59, 1.5))}[kc.Q_COLLAPSE_P]
+    assert apart.ours == pytest.approx(1.5, rel=1e-9) and apart.verdict.startswith("one sample: off by +50.0 %")

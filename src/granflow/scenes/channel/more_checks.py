@@ -25,9 +25,9 @@ across the lower and the higher :math:`\\bar\\phi` at one W (:func:`sweep_more_c
 * fig. 5(d): :math:`\\delta_{0.95}` falls as :math:`\\bar\\phi` rises;
 * fig. 8(a): the plug (:math:`\\phi \\ge 0.63`) thins as :math:`\\bar\\phi` falls;
 * figs. 6, 7(a): :math:`\\sigma_{xx}` rises with :math:`\\bar\\phi`; fig. 7(b): :math:`\\mu_{wall}` falls;
-* fig. 8(c): T in the shearing zones falls as :math:`\\bar\\phi` rises; in the plug it is independent of it;
-* fig. 13: :math:`p_\\phi = \\sigma_{xx}/T` and :math:`\\mu_\\phi = \\sigma_{xy}/(T^{1/2} du/dx)` of the loose
-  zone's bins of both cases diverge as :math:`(\\phi_{ad} - \\phi)^{-1}` at :math:`\\phi_{ad} = 0.59 \\pm 0.002`.
+* fig. 8(c): T in the shearing zones falls as :math:`\\bar\\phi` rises; in the plug it is independent of it
+
+(fig. 13's kinetic-theory coefficients of the loose zone are :mod:`.kinetic_checks`').
 
 Where a measurement has a free choice (a fit range, a zone edge) the same number is measured each
 other way and the largest shift is its systematic error (:func:`granflow.validation.systematic`).
@@ -77,18 +77,14 @@ Q_SXX_PHI = "σ_xx at the higher φ̄ over σ_xx at the lower φ̄"
 Q_MU_WALL = "μ_wall at the higher φ̄ minus at the lower φ̄"
 Q_T_SHEAR = "T in the shearing zones at the higher φ̄ over at the lower φ̄"
 Q_T_PLUG = "T in the plug at the higher φ̄ over at the lower φ̄"
-Q_PAD_P = "φ_ad where p_φ = σ_xx/T diverges as (φ_ad − φ)⁻¹, loose zone"
-Q_PAD_MU = "φ_ad where μ_φ = σ_xy/(T^½ du/dx) diverges as (φ_ad − φ)⁻¹, loose zone"
-#: the paper's divergence of the loose zone's coefficients (§3.2, fig. 13): φ_ad = 0.59 ± 0.002
-PHI_AD_FIT, PHI_AD_FIT_ERROR = 0.59, 0.002
 #: every quantity this module writes (paper_results.yaml's compared_by names them)
 QUANTITIES = (Q_SXX, Q_SXY, Q_SPIN, Q_SQRT_T, Q_LOG_PHI, Q_UCM, Q_LC, Q_USLIP, Q_UMAX, Q_DELTA, Q_PLUG, Q_SXX_PHI,
-              Q_MU_WALL, Q_T_SHEAR, Q_T_PLUG, Q_PAD_P, Q_PAD_MU)
+              Q_MU_WALL, Q_T_SHEAR, Q_T_PLUG)
 INDEPENDENT = "bins taken as independent, each with its correlation-aware time-average error"
 
 
 # ------------------------------------------------------------------------- fits over bins
-def _column(a: ChannelAnalysis, name: str) -> tuple[np.ndarray, np.ndarray]:
+def field_column(a: ChannelAnalysis, name: str) -> tuple[np.ndarray, np.ndarray]:
     f = a.folded
     n = len(f)
     value = f[name].to_numpy(float) if name in f else np.full(n, NAN)
@@ -132,7 +128,7 @@ def sigma_xx_change(a: ChannelAnalysis, x_start: float) -> dict:
     :math:`x \\ge x_{start}`: ``change`` :math:`= c_1 (x_{last} - x_{first})/c_0` and its error,
     ``mean`` :math:`c_0` (the plateau) and its error, ``chi2_nu``, ``n``."""
     x = a.folded["x"].to_numpy(float)
-    s, se = _column(a, "sigma_xx")
+    s, se = field_column(a, "sigma_xx")
     keep = (x >= x_start) & np.isfinite(s)
     if keep.sum() < 3:
         return {"change": NAN, "change_se": NAN, "mean": NAN, "mean_se": NAN, "chi2_nu": NAN, "n": int(keep.sum())}
@@ -151,7 +147,7 @@ def sigma_xy_balance(a: ChannelAnalysis, x_start: float) -> dict:
     """``b`` of :math:`\\pm\\sigma_{xy}(x) = b\\,G(x)` (:func:`column_from_centre`) over the folded bins
     with :math:`x \\ge x_{start}`, weighted, through the origin; its error, ``chi2_nu``, ``n``."""
     x = a.folded["x"].to_numpy(float)
-    s, se = _column(a, "sigma_xy")
+    s, se = field_column(a, "sigma_xy")
     G = column_from_centre(a)
     keep = (x >= x_start) & np.isfinite(s) & np.isfinite(se) & (se > 0)
     if keep.sum() < 2:
@@ -184,7 +180,7 @@ def shear_over_sqrt_t(a: ChannelAnalysis, inner: int = 1) -> dict:
     """:math:`r = d_p\\dot\\gamma/\\sqrt T` at the wall bin and bin ``inner``: ``rise`` :math:`r_{inner} - r_0`
     with its error (errors of the bins independent), and the shear rate's change over the same bins."""
     gd, gd_se = a.rheo["gamma_dot"].to_numpy(float), a.rheo["gamma_dot_se"].to_numpy(float)
-    T, T_se = _column(a, "T")
+    T, T_se = field_column(a, "T")
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.abs(gd) / np.sqrt(T)
         r_se = r * np.hypot(gd_se / gd, 0.5 * T_se / T)
@@ -199,7 +195,7 @@ def log_phi_curvature(a: ChannelAnalysis, skip: int, x_end: float) -> dict:
     ``x_end``: two-sided p-value of its quadratic term (t-test with ν = n - 3, error χ²-scaled), the
     term's sign, χ²/ν of the straight line, ``n``."""
     x = a.folded["x"].to_numpy(float)
-    phi, se = _column(a, "phi")
+    phi, se = field_column(a, "phi")
     idx = np.flatnonzero(np.isfinite(phi) & (phi > 0) & (x < x_end))
     idx = idx[idx >= skip]
     y, y_se = -np.log(phi[idx]), se[idx] / phi[idx]
@@ -233,7 +229,7 @@ def conduction_length(a: ChannelAnalysis, x_from: float) -> dict:
     from scipy.optimize import curve_fit
 
     x = a.folded["x"].to_numpy(float)
-    T, T_se = _column(a, "T")
+    T, T_se = field_column(a, "T")
     keep = (x >= x_from) & np.isfinite(T) & (T > 0) & np.isfinite(T_se) & (T_se > 0)
     nan = {"l_c": NAN, "se": NAN, "n": int(keep.sum()), "chi2_nu": NAN}
     if keep.sum() < 4:
@@ -385,7 +381,7 @@ def plug_edge(a: ChannelAnalysis) -> tuple[float, float]:
     the two bins it is interpolated between: :math:`\\mathrm{se}_\\phi\\,\\Delta x/\\Delta\\phi`."""
     x0 = a.zones.x_plug_phi063
     x = a.folded["x"].to_numpy(float)
-    phi, se = _column(a, "phi")
+    phi, se = field_column(a, "phi")
     if not math.isfinite(x0):
         return NAN, NAN
     k = int(np.searchsorted(x, x0))
@@ -398,8 +394,8 @@ def zone_log_ratio(hi: ChannelAnalysis, lo: ChannelAnalysis, field: str, x_from:
     """Weighted mean over the common bins with ``x_from ≤ x < x_to`` of :math:`\\ln(f_{hi}/f_{lo})`,
     returned as the ratio ``exp`` of it with its error (χ²-scaled), ``n``."""
     x = hi.folded["x"].to_numpy(float)
-    fh, sh = _column(hi, field)
-    fl, sl = _column(lo, field)
+    fh, sh = field_column(hi, field)
+    fl, sl = field_column(lo, field)
     if len(lo.folded) != len(x) or not np.allclose(lo.folded["x"].to_numpy(float), x):
         return {"ratio": NAN, "se": NAN, "n": 0}
     keep = (x >= x_from) & (x < x_to) & (fh > 0) & (fl > 0)
@@ -420,8 +416,9 @@ def mu_wall(a: ChannelAnalysis, x_start: float) -> tuple[float, float]:
     return tau / s["mean"], tau / s["mean"] ** 2 * s["mean_se"]
 
 
-def sweep_more_checks(cases: list) -> list[Check]:
-    """Rows comparing the lowest and highest φ̄ at each W (cases without an analysis are skipped)."""
+def phi_pairs(cases: list) -> list[tuple]:
+    """``(lowest φ̄, highest φ̄)`` cases at each W that has two different φ̄ (cases without an analysed steady
+    profile left out), with a seed-independent name ``"<low> vs <high>"`` and a phrase for the notes."""
     by_w: dict[float, list] = {}
     for c in cases:
         if c.analysis is not None and not c.why_not:
@@ -429,11 +426,16 @@ def sweep_more_checks(cases: list) -> list[Check]:
     out = []
     for W, group in sorted(by_w.items()):
         group.sort(key=lambda c: float(c.record["parameters"]["phi_mean"]))
-        phis = [float(c.record["parameters"]["phi_mean"]) for c in group]
-        if phis[0] == phis[-1]:
-            continue
-        out += _pair_checks(group[0], group[-1])
+        pl, ph = (float(c.record["parameters"]["phi_mean"]) for c in (group[0], group[-1]))
+        if pl != ph:
+            out.append((group[0], group[-1], f"{group[0].name} vs {group[-1].name}",
+                        f"φ̄ = {pl:g} and {ph:g} at W = {W:g} d_p"))
     return out
+
+
+def sweep_more_checks(cases: list) -> list[Check]:
+    """Rows comparing the lowest and highest φ̄ at each W (:func:`phi_pairs`)."""
+    return [check for low, high, _, _ in phi_pairs(cases) for check in _pair_checks(low, high)]
 
 
 def _pair_checks(low, high) -> list[Check]:
@@ -513,63 +515,6 @@ def _pair_checks(low, high) -> list[Check]:
                           f"in what the paper calls the dense shearing zone), x = {edge_out:.3g} d_p, {pair}; "
                           f"{INDEPENDENT}, error scaled by √(χ²/ν) when above 1 (a plug that samples one "
                           f"configuration scatters)"))
-    return out + divergence_checks([low, high], name, pair)
-
-
-def loose_coefficients(a: ChannelAnalysis, x_from: float = 0.0) -> pd.DataFrame:
-    """Per loose-zone bin (``zones.labels == "loose"``, :math:`x \\ge` ``x_from``): φ, the kinetic-theory
-    coefficients :math:`p_\\phi = \\sigma_{xx}/T` (B8) and :math:`\\mu_\\phi = |\\sigma_{xy}|/(T^{1/2}|du/dx|)` (B9),
-    and their relative errors (the bins' errors independent)."""
-    x = a.folded["x"].to_numpy(float)
-    phi = a.folded["phi"].to_numpy(float)
-    sxx, sxx_se = _column(a, "sigma_xx")
-    sxy, sxy_se = _column(a, "sigma_xy")
-    T, T_se = _column(a, "T")
-    gd, gd_se = a.rheo["gamma_dot"].to_numpy(float), a.rheo["gamma_dot_se"].to_numpy(float)
-    keep = (a.zones.labels == "loose") & (x >= x_from)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        p = sxx / T
-        mu = np.abs(sxy) / (np.sqrt(T) * np.abs(gd))
-        p_rel = np.hypot(sxx_se / sxx, T_se / T)
-        mu_rel = np.sqrt((sxy_se / sxy) ** 2 + (0.5 * T_se / T) ** 2 + (gd_se / gd) ** 2)
-    return pd.DataFrame({"phi": phi, "p_phi": p, "p_phi_rel": p_rel, "mu_phi": mu, "mu_phi_rel": mu_rel})[keep]
-
-
-def divergence_point(phi, coefficient, rel_error) -> dict:
-    """:math:`\\phi_{ad}` of :math:`c = A/(\\phi_{ad} - \\phi)`: a weighted line :math:`1/c = a_0 + a_1\\phi`
-    (errors of :math:`1/c` its relative ones), :math:`\\phi_{ad} = -a_0/a_1` with its error by the delta method
-    (χ²-scaled); ``n`` points, ``chi2_nu``."""
-    phi, c, rel = (np.asarray(v, float) for v in (phi, coefficient, rel_error))
-    ok = np.isfinite(phi) & np.isfinite(c) & (c > 0) & np.isfinite(rel)
-    coef, cov, chi2_nu, nu = weighted_polyfit(phi[ok], 1.0 / c[ok], rel[ok] / c[ok], 1)
-    if nu < 1 or not np.all(np.isfinite(coef)) or coef[1] == 0:
-        return {"phi_ad": NAN, "se": NAN, "n": int(ok.sum()), "chi2_nu": NAN}
-    jac = np.array([-1.0 / coef[1], coef[0] / coef[1] ** 2])
-    return {"phi_ad": float(-coef[0] / coef[1]), "se": float(math.sqrt(jac @ cov @ jac)), "n": int(ok.sum()),
-            "chi2_nu": chi2_nu}
-
-
-def divergence_checks(cases: list, name: str, pair: str) -> list[Check]:
-    """:math:`\\phi_{ad}` from :math:`p_\\phi` and from :math:`\\mu_\\phi` over the loose-zone bins of ``cases``
-    (the paper fits across its φ̄), the outermost loose bin left out as the variant."""
-    out = []
-    tables = [loose_coefficients(c.analysis) for c in cases]
-    inner = [loose_coefficients(c.analysis, WALL_LAYER + 1.0) for c in cases]
-    for q, key, label in ((Q_PAD_P, "p_phi", "p_φ = σ_xx/T (eq. B8)"),
-                          (Q_PAD_MU, "mu_phi", "μ_φ = |σ_xy|/(T^½|du/dx|) (eq. B9)")):
-        both, deeper = pd.concat(tables), pd.concat(inner)
-        fit = divergence_point(both["phi"], both[key], both[f"{key}_rel"])
-        alt = divergence_point(deeper["phi"], deeper[key], deeper[f"{key}_rel"])["phi_ad"]
-        syst, text = systematic(fit["phi_ad"], {"from 3 d_p (the outermost loose bin left out)": alt})
-        span = f"{both['phi'].min():.3g}-{both['phi'].max():.3g}" if len(both) else "none"
-        out.append(Check(q, "0.59 ± 0.002 (p_φ, μ_φ; inclined plane 0.585 ± 0.005)", "§3.2, fig. 13; conclusion (ix)",
-                         fit["phi_ad"], fit["se"], name, (PHI_AD_FIT, PHI_AD_FIT), paper_error=PHI_AD_FIT_ERROR,
-                         syst=syst, variants=text,
-                         note=f"{label} of the {fit['n']} loose-zone bins (2 d_p ≤ x, φ < 0.587) of {pair}, φ = "
-                              f"{span}: a weighted line through 1/{key.replace('_phi', '_φ')} against φ crosses zero "
-                              f"at φ_ad (the paper's fit ∝ (φ_ad − φ)⁻¹ across its φ̄); χ²/ν = {fit['chi2_nu']:.2g}; "
-                              f"{INDEPENDENT}, error scaled by √(χ²/ν) when above 1. The loose zone ends at the "
-                              f"paper's φ_ad = 0.587 by definition, so the fit extrapolates beyond its bins"))
     return out
 
 

@@ -15,8 +15,9 @@ averaging window in blocks). Per steady case it compares
   the loose shearing zone (the paper finds B3 off in shape, B4 good in the loose zone);
 * the momentum balance: the wall shear force of both walls over the weight, exactly 1.
 
-and, from :mod:`.more_checks`, the paper's other results one W and two φ̄ can test (eqs. B1-B2,
-Ω/ω, (du/dx)/√T, ln φ's shape, u_cm's fluctuation, and the trends with φ̄ across the cases).
+and, from :mod:`.more_checks` and :mod:`.kinetic_checks`, the paper's other results one W and two φ̄ can
+test (eqs. B1-B2, Ω/ω, (du/dx)/√T, ln φ's shape, u_cm's fluctuation, l_c, the trends with φ̄ across the
+cases, and fig. 13's collapse and divergence of the loose zone's p_φ and μ_φ).
 
 A case that was not averaged in a steady state gets NaN and the reason in each note.
 Units: :math:`d_p`, :math:`\\sqrt{d_p/g}`, :math:`\\rho_p = 1` (as the analysis writes them).
@@ -37,6 +38,7 @@ from postproc.autocorr import mean_error
 
 from .analysis import JOP2015, ChannelAnalysis, analyse_profile, plug_phi
 from .measurement import central_errors, headline_variants
+from .kinetic_checks import kinetic_checks
 from .more_checks import more_checks
 
 NAN = float("nan")
@@ -419,7 +421,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
             rheology.append(rheology_points(case.analysis).assign(case=case.name))
         if (case.path / "analysis" / "blocks.csv").exists():
             blocks.append(pd.read_csv(case.path / "analysis" / "blocks.csv").assign(case=case.name))
-    checks += more_checks(loaded)  # the paper's other results one W and two φ̄ can test (.more_checks)
+    checks += more_checks(loaded) + kinetic_checks(loaded)  # the paper's other results one W and two φ̄ can test
     profiles = {}
     if velocity:
         profiles["velocity_scaled"] = pd.concat(velocity, ignore_index=True)

@@ -344,3 +344,38 @@ def test_the_loose_zone_coefficients_collapse_on_phi(tmp_path):
     # p_φ 1.5 times higher at the higher φ̄: not a function of φ alone
     apart = {c.quantity: c for c in kc.kinetic_checks(loose_pair(tmp_path / "apart", 0.59, 1.5))}[kc.Q_COLLAPSE_P]
     assert apart.ours == pytest.approx(1.5, rel=1e-9) and apart.verdict.startswith("one sample: off by +50.0 %")
+
+
+def loose_bins(I, phi):
+    """A stand-in analysis holding only loose-zone bins (x from 2 d_p) with I and φ (errors 1e-3)."""
+    from types import SimpleNamespace
+
+    n = len(I)
+    folded = pd.DataFrame({"x": 2.0 + np.arange(n), "phi": phi, "phi_se": np.full(n, 1e-3)})
+    return SimpleNamespace(folded=folded, rheo=pd.DataFrame({"I": I}),
+                           zones=SimpleNamespace(labels=np.array(["loose"] * n, dtype=object)))
+
+
+def test_phi_of_i_collapses_in_the_loose_zone():
+    # 0.64 − φ = 0.1 √I at both φ̄ (a power law: straight on fig. 11(b)'s log-log axes, so the interpolation
+    # in ln I is exact); the higher φ̄'s I = 0.4 and 0.15 lie within the lower's 0.1-0.5
+    I_low, I_high = np.array([0.5, 0.3, 0.2, 0.1]), np.array([0.4, 0.15, 0.05])
+    low = loose_bins(I_low, 0.64 - 0.1 * np.sqrt(I_low))
+    same = kc.phi_of_i_ratio(loose_bins(I_high, 0.64 - 0.1 * np.sqrt(I_high)), low)
+    assert same["ratio"] == pytest.approx(1.0, rel=1e-12) and same["n"] == 2   # I = 0.05 is outside: left out
+    apart = kc.phi_of_i_ratio(loose_bins(I_high, 0.64 - 0.2 * np.sqrt(I_high)), low)
+    assert apart["ratio"] == pytest.approx(2.0, rel=1e-12)
+    # errors: φ's 1e-3 over 0.64 − φ ≈ 0.04-0.07, three bins' worth per point, two points
+    assert 0.01 < same["se"] < 0.05
+    from types import SimpleNamespace
+    row = kc.phi_of_i_check(SimpleNamespace(analysis=low),
+                            SimpleNamespace(analysis=loose_bins(I_high, 0.64 - 0.2 * np.sqrt(I_high))), "a vs b", "a, b")
+    assert row.ours == pytest.approx(2.0) and row.verdict.startswith("one sample: off by +100.0 %"), row.verdict
+
+
+def test_the_phi_of_i_row_is_judged(tmp_path):
+    cases = loose_pair(tmp_path, 0.59)
+    row = {c.quantity: c for c in kc.kinetic_checks(cases)}[kc.Q_PHI_I]
+    low, high = (c.analysis for c in cases)
+    assert row.ours == pytest.approx(kc.phi_of_i_ratio(high, low)["ratio"], rel=1e-12)
+    assert row.paper_range == (1.0, 1.0) and row.kind == "comparison" and "equal I" in row.quantity

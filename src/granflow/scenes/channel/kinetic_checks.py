@@ -1,4 +1,4 @@
-"""Fig. 13 of Debnath, Kesava Rao & Kumaran (2022): the loose shearing zone's kinetic-theory coefficients.
+"""Figs. 11(b) and 13 of Debnath, Kesava Rao & Kumaran (2022): the loose shearing zone's rheology.
 
 In the loose zone (:math:`\\phi < \\phi_{ad} = 0.587`, beyond the 2 :math:`d_p` wall layer) the paper finds
 :math:`p_\\phi = \\sigma_{xx}/T` (eq. B8) and :math:`\\mu_\\phi = \\sigma_{xy}/(T^{1/2} du_y/dx)` (eq. B9)
@@ -9,7 +9,10 @@ the lowest and highest :math:`\\bar\\phi` of each W (:func:`.more_checks.phi_pai
 * the collapse: the higher :math:`\\bar\\phi`'s coefficient over the lower's at equal :math:`\\phi`, the lower's
   :math:`1/c` interpolated linearly in :math:`\\phi` (straight for a divergence of this form) — paper: 1;
 * the divergence: :math:`\\phi_{ad}` where a weighted line through :math:`1/c` of both cases' loose bins
-  crosses zero (the paper's fit across its :math:`\\bar\\phi`).
+  crosses zero (the paper's fit across its :math:`\\bar\\phi`);
+* fig. 11(b): :math:`0.64 - \\phi` depends on :math:`I` alone in the loose zone — the higher
+  :math:`\\bar\\phi`'s over the lower's at equal :math:`I`, interpolated linearly in :math:`\\ln I` (the log-log
+  axes of the figure) — paper: 1.
 
 :math:`D_\\phi` (eq. B10) needs the dissipation rate D, which we do not measure. Bins are taken as
 independent, each with its correlation-aware error. Units: :math:`d_p`, :math:`\\sqrt{d_p/g}`, :math:`\\rho_p = 1`.
@@ -30,8 +33,11 @@ Q_PAD_P = "φ_ad where p_φ = σ_xx/T diverges as (φ_ad − φ)⁻¹, loose zon
 Q_PAD_MU = "φ_ad where μ_φ = σ_xy/(T^½ du/dx) diverges as (φ_ad − φ)⁻¹, loose zone"
 Q_COLLAPSE_P = "p_φ = σ_xx/T at the higher φ̄ over at the lower φ̄, equal φ, loose zone"
 Q_COLLAPSE_MU = "μ_φ = σ_xy/(T^½ du/dx) at the higher φ̄ over at the lower φ̄, equal φ, loose zone"
+Q_PHI_I = "0.64 − φ at the higher φ̄ over at the lower φ̄, equal I, loose zone"
+#: φ_rcp of the paper's fig. 11(b), which plots 0.64 − φ
+PHI_RCP = 0.64
 #: every quantity this module writes
-QUANTITIES = (Q_PAD_P, Q_PAD_MU, Q_COLLAPSE_P, Q_COLLAPSE_MU)
+QUANTITIES = (Q_PAD_P, Q_PAD_MU, Q_COLLAPSE_P, Q_COLLAPSE_MU, Q_PHI_I)
 #: the paper's divergence of the loose zone's coefficients (§3.2, fig. 13): φ_ad = 0.59 ± 0.002
 PHI_AD_FIT, PHI_AD_FIT_ERROR = 0.59, 0.002
 COEFFICIENTS = (("p_phi", "p_φ = σ_xx/T (eq. B8)"), ("mu_phi", "μ_φ = |σ_xy|/(T^½|du/dx|) (eq. B9)"))
@@ -133,9 +139,50 @@ def collapse_checks(low, high, name: str, pair: str) -> list[Check]:
     return out
 
 
+def phi_of_i_ratio(high: ChannelAnalysis, low: ChannelAnalysis, x_from: float = 0.0) -> dict:
+    """Weighted mean over the higher φ̄'s loose bins whose I lies within the lower φ̄'s of
+    :math:`\\ln[(0.64 - \\phi_{high})/(0.64 - \\phi_{low}(I))]`, :math:`\\ln(0.64 - \\phi_{low})` interpolated linearly in
+    :math:`\\ln I` (φ's errors, independent, propagated; I's neglected); ``ratio``, its error (χ²-scaled), ``n``."""
+    def loose(a):
+        x = a.folded["x"].to_numpy(float)
+        phi, se = field_column(a, "phi")
+        I = a.rheo["I"].to_numpy(float)
+        keep = (a.zones.labels == "loose") & (x >= x_from) & (I > 0) & (phi < PHI_RCP)
+        order = np.argsort(I[keep])
+        return np.log(I[keep][order]), np.log(PHI_RCP - phi[keep][order]), (se / (PHI_RCP - phi))[keep][order]
+
+    li_h, y_h, e_h = loose(high)
+    li_l, y_l, e_l = loose(low)
+    ys, ses = [], []
+    for li, y, e in zip(li_h, y_h, e_h):
+        if len(li_l) < 2 or not li_l[0] <= li <= li_l[-1]:
+            continue
+        k = int(np.clip(np.searchsorted(li_l, li), 1, len(li_l) - 1))
+        w = (li - li_l[k - 1]) / (li_l[k] - li_l[k - 1]) if li_l[k] > li_l[k - 1] else 0.5
+        ys.append(y - ((1 - w) * y_l[k - 1] + w * y_l[k]))
+        ses.append(math.sqrt(e**2 + ((1 - w) * e_l[k - 1]) ** 2 + (w * e_l[k]) ** 2))
+    coef, cov, _, _ = weighted_polyfit(np.zeros(len(ys)), np.array(ys), np.array(ses), 0)
+    r = math.exp(coef[0]) if np.isfinite(coef[0]) else NAN
+    return {"ratio": r, "se": r * math.sqrt(cov[0, 0]) if np.isfinite(r) else NAN, "n": len(ys)}
+
+
+def phi_of_i_check(low, high, name: str, pair: str) -> Check:
+    """0.64 − φ of the higher φ̄ over the lower's at equal I in the loose zone (:func:`phi_of_i_ratio`)."""
+    fit = phi_of_i_ratio(high.analysis, low.analysis)
+    alt = phi_of_i_ratio(high.analysis, low.analysis, WALL_LAYER + 1.0)["ratio"]
+    syst, text = systematic(fit["ratio"], {"from 3 d_p (the outermost loose bin left out)": alt})
+    return Check(Q_PHI_I, "1: 0.64 − φ depends on I alone in the loose zone (on I and φ̄ in the dense zone)",
+                 "§3.2, fig. 11(b)", fit["ratio"], fit["se"], name, (1.0, 1.0), syst=syst, variants=text,
+                 note=f"exp of the weighted mean of ln[(0.64 − φ_high)/(0.64 − φ_low)] over the {fit['n']} loose-zone "
+                      f"bins of the higher φ̄ whose I = d_p|du/dx|/√(σ_xx/ρ_p) lies within the lower φ̄'s loose bins, "
+                      f"{pair}; ln(0.64 − φ_low) interpolated linearly in ln I; {INDEPENDENT} (I's error neglected), "
+                      f"error scaled by √(χ²/ν) when above 1")
+
+
 def kinetic_checks(cases: list) -> list[Check]:
     """The collapse and the divergence of the loose zone's coefficients for each W's two φ̄ (:func:`phi_pairs`)."""
     out = []
     for low, high, name, pair in phi_pairs(cases):
         out += collapse_checks(low, high, name, pair) + divergence_checks([low, high], name, pair)
+        out.append(phi_of_i_check(low, high, name, pair))
     return out

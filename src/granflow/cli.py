@@ -340,6 +340,17 @@ def cmd_plan(args) -> int:
     # relative results_dir are found from there, wherever the campaign file lies
     root = Path.cwd()
     path = Path(args.config or "config/config.yaml")
+    if {"rungs", "scene_file"} <= set(load_yaml(path)):   # a ladder (config/ladders/<scene>.yaml): every rung priced
+        from .ladder import ladder_plan, load_ladder
+
+        if args.rung or args.overrides:
+            raise ConfigError(f"--config = {str(path)!r} is a ladder: --rung and --set are not allowed with it "
+                              f"(each rung says its own; change config/ladders/<scene>.yaml)")
+        results = Path(load_yaml(root / "config/config.yaml").get("results_dir", "results"))
+        plan = ladder_plan(load_ladder(path), results if results.is_absolute() else root / results, root,
+                           max_ranks=args.max_ranks, runtime_limit_min=round(60 * args.runtime_limit_h))
+        print(json.dumps(plan, indent=2) if args.json else format_plan(plan))
+        return 0
     overrides = ([f"rung={args.rung}"] if args.rung else []) + list(args.overrides) + _limit_overrides(args)
     cfg = load_campaign(path, overrides, root=root)
     results = Path(cfg.get("results_dir", "results"))
@@ -434,7 +445,8 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="examples:\n"
                "  granflow plan --rung study\n"
                "  granflow plan --rung paper --max-ranks 128 --max-cpu-hours 5000 --json > plan.json\n"
-               "  granflow plan --set scenes.channel.sweep.W=[60,100] --rung paper --max-cpu-hours 5000\n\n"
+               "  granflow plan --set scenes.channel.sweep.W=[60,100] --rung paper --max-cpu-hours 5000\n"
+               "  granflow plan --config config/ladders/heap.yaml     (every rung of a ladder)\n\n"
                "Numbers are upper bounds: flow until t_flow_max, every averaging segment.\n"
                "A case, or the campaign's cases together, above --max-cpu-hours (default a week of\n"
                "this machine's cores, 7 x 24 x os.cpu_count()) is refused, as by check-config and snakemake.\n"

@@ -57,6 +57,7 @@ RULE_PHASE = {
     "validation_readme": "report",
     "validation_report": "report",
     "validation_ladder_report": "report",
+    "ladder_record": "report",
     "overview": "report",
 }
 #: the rule writing this table: not timed (it would have to time itself)

@@ -68,7 +68,7 @@ rule validation_readme:
 def validation_report_targets():
     """The committed record's check tables, shown in the report of any other campaign (section
     "validation"; the validation campaign's report shows the record it writes itself), and the
-    committed ladders' figures (tools/ladder.py record: measured on other runs than any campaign's),
+    committed ladders' figures (`snakemake ladder`: measured on other runs than the campaign's),
     shown in every campaign's report."""
     ladders = sorted(p.parent.parent.name for p in Path(workflow.basedir, "validation").glob("*/figures/ladder.png"))
     targets = [f"{RESULTS}/report/validation/{name}_ladder.png" for name in ladders]

@@ -252,8 +252,8 @@ def _number(text) -> float:
 
 
 def read_ladder(path: Path) -> list[dict]:
-    """The rows of a committed ladder (``validation/<scene>/ladder.csv``, written by the rule ``ladder_record``
-    ), its numbers as floats."""
+    """The rows of a committed ladder (``validation/<scene>/ladder.csv``, by the rule ``ladder_record``), its
+    numbers as floats."""
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     for r in rows:

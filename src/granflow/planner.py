@@ -212,9 +212,9 @@ def reasons(df: pd.DataFrame, ladder: dict, quantity: str, p: float, measured: l
             out.append(f"no measured rung is within it (nearest {min(m[0] for m in measured) * 100:.2g} % outside)")
     out.append(why)
     nearest = min((m[2]["from_paper"] for m in measured), default=math.inf)
-    later = df[(df["from_paper"] < nearest) & ~df["state"].astype(str).str.startswith("run")].drop_duplicates("rung")
+    later = df[(df["from_paper"] <= nearest) & ~df["state"].astype(str).str.startswith("run")].drop_duplicates("rung")
     if len(later):
-        out.append("rungs nearer the paper's setup not run: " + ", ".join(
+        out.append("rungs as near the paper's setup or nearer, not run: " + ", ".join(
             f"{r['rung']} ({'planned, ' if str(r['state']).startswith('planned') else ''}"
             + (f"{r['cpu_hours']:.3g} CPU-h)" if math.isfinite(r["cpu_hours"]) else "not priced)")
             for _, r in later.iterrows()))

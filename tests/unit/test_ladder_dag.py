@@ -101,3 +101,25 @@ def test_plan_prices_a_ladder_like_a_campaign(capsys):
     assert all("/ladders/channel/" in r["case_dir"] for r in plan["rows"])
     assert cli.main(["plan", "--config", "config/ladders/channel.yaml", "--rung", "paper"]) == 2
     assert "is a ladder: --rung and --set are not allowed" in capsys.readouterr().err
+
+
+def test_a_file_target_under_the_ladders_names_one_of_their_rungs_and_cases():
+    """`snakemake results/ladders/...` is checked as a campaign's case target is: a rung the ladder does not
+    run, or a case of another rung, is refused by name (granflow.targets)."""
+    from granflow.config import ConfigError
+    from granflow.targets import check_targets
+
+    ladders = {"heap": {"base": ("validation", ["mixture~bi1-2/feed_rate~0.033"]),
+                        "one_kn_mdot10": ("validation", ["mixture~bi1-2/feed_rate~0.01"])}}
+
+    def check(target):
+        check_targets([target], "results", "demo", {}, ["heap"], {}, ladders=ladders)
+
+    check("results/ladders/heap/base/heap/validation/mixture~bi1-2/feed_rate~0.033/params.json")
+    check("results/ladders/heap/benchmarks/ladder_record.tsv")
+    with pytest.raises(ConfigError, match="rung W046 is not one the heap ladder runs: allowed base, one_kn_mdot10"):
+        check("results/ladders/heap/W046/heap/validation/mixture~bi1-2/feed_rate~0.033/params.json")
+    with pytest.raises(ConfigError, match="case mixture~bi1-2/feed_rate~0.01 is not one of the heap ladder's rung base"):
+        check("results/ladders/heap/base/heap/validation/mixture~bi1-2/feed_rate~0.01/params.json")
+    with pytest.raises(ConfigError, match="scene silo has no ladder: allowed heap"):
+        check("results/ladders/silo/base/silo/validation/R~6/params.json")

@@ -130,7 +130,9 @@ def check_command_line_targets():
     targets = cli_targets(sys.argv[1:])
     try:
         check_targets(targets, RESULTS, RUNG, {name: scene_cases(name) for name in SCENES},
-                      registry.names(), cost)
+                      registry.names(), cost,
+                      ladders={scene: {name: (s["rung"], rung_cases(lad["ladder"], s)) for name, s in lad["rungs"].items()}
+                               for scene, lad in LADDERS.items()})
     except ConfigError as exc:
         refuse("invalid target", exc)
     say_skipped(targets)

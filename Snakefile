@@ -20,6 +20,7 @@ include: "workflows/rules/validation.smk"
 include: "workflows/rules/overview.smk"
 include: "workflows/rules/snapshots.smk"
 include: "workflows/rules/timing.smk"
+include: "workflows/rules/ladders.smk"
 
 
 check_command_line_targets()
@@ -44,6 +45,14 @@ rule cost:
     """Error-versus-cost study of every scene in the campaign's `cost` section (not part of `all`)."""
     input:
         cost_targets(),
+
+
+rule ladder:
+    """Every rung of every ladder (config/ladders/<scene>.yaml) run with the campaign's rules, then each
+    ladder's record validation/<scene>/ladder.csv, ladder.md and figures/ladder.png (not part of `all`;
+    one scene's: `snakemake ladder_<scene>`)."""
+    input:
+        ladder_targets(),
 
 
 rule validate:

@@ -336,10 +336,29 @@ def cmd_run(args) -> int:
 def cmd_plan(args) -> int:
     from .resources import format_plan, plan_campaign
 
+    if args.target:   # what accuracy costs, from the committed ladders (granflow.planner)
+        from .planner import answer, format_answers
+
+        if args.cores is not None and args.cores < 1:
+            raise ConfigError(f"--cores = {args.cores}: allowed a whole number of cores >= 1")
+        found = [answer(t, args.cores or os.cpu_count() or 1) for t in args.target]
+        print(json.dumps(found, indent=2, default=float) if args.json else format_answers(found))
+        return 0
     # the project root is the working directory, as for check-config and snakemake: scene files and a
     # relative results_dir are found from there, wherever the campaign file lies
     root = Path.cwd()
     path = Path(args.config or "config/config.yaml")
+    if {"rungs", "scene_file"} <= set(load_yaml(path)):   # a ladder (config/ladders/<scene>.yaml): every rung priced
+        from .ladder import ladder_plan, load_ladder
+
+        if args.rung or args.overrides:
+            raise ConfigError(f"--config = {str(path)!r} is a ladder: --rung and --set are not allowed with it "
+                              f"(each rung says its own; change config/ladders/<scene>.yaml)")
+        results = Path(load_yaml(root / "config/config.yaml").get("results_dir", "results"))
+        plan = ladder_plan(load_ladder(path), results if results.is_absolute() else root / results, root,
+                           max_ranks=args.max_ranks, runtime_limit_min=round(60 * args.runtime_limit_h))
+        print(json.dumps(plan, indent=2) if args.json else format_plan(plan))
+        return 0
     overrides = ([f"rung={args.rung}"] if args.rung else []) + list(args.overrides) + _limit_overrides(args)
     cfg = load_campaign(path, overrides, root=root)
     results = Path(cfg.get("results_dir", "results"))
@@ -434,7 +453,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="examples:\n"
                "  granflow plan --rung study\n"
                "  granflow plan --rung paper --max-ranks 128 --max-cpu-hours 5000 --json > plan.json\n"
-               "  granflow plan --set scenes.channel.sweep.W=[60,100] --rung paper --max-cpu-hours 5000\n\n"
+               "  granflow plan --set scenes.channel.sweep.W=[60,100] --rung paper --max-cpu-hours 5000\n"
+               "  granflow plan --config config/ladders/heap.yaml     (every rung of a ladder)\n"
+               "  granflow plan --target 'channel:u_max:1%' --cores 64 [--json]\n\n"
                "Numbers are upper bounds: flow until t_flow_max, every averaging segment.\n"
                "A case, or the campaign's cases together, above --max-cpu-hours (default a week of\n"
                "this machine's cores, 7 x 24 x os.cpu_count()) is refused, as by check-config and snakemake.\n"
@@ -448,6 +469,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--runtime-limit-h", type=float, default=24.0, metavar="H",
                    help="flag simulate jobs longer than this (default 24 h, a common partition limit)")
     p.add_argument("--json", action="store_true", help="print the plan as JSON")
+    p.add_argument("--target", action="append", metavar="SCENE:QUANTITY:P%",
+                   help="what brings QUANTITY (a unique part of its name) within P %% of the paper, from the "
+                        "committed ladders (granflow.planner): a measured rung, an extrapolation, or why neither")
+    p.add_argument("--cores", type=int, metavar="N", help="with --target: wall-hours on N cores (default this machine's)")
     _add_set(p)
     _add_limits(p)
     p.set_defaults(func=cmd_plan)

@@ -289,6 +289,16 @@ def validate_campaign_scenes(data: dict, root: Path, source: str = "config") -> 
     return data
 
 
+def check_scene_sweep(name: str, scene: dict, sweep: dict, rung: str, source: str, limits: dict | None = None) -> float:
+    """A validated scene's sweep at ``rung`` checked as a campaign of that scene alone checks it (the rung
+    defined, every point within the schema, feasible and within the size limits, all points together
+    within ``max_cpu_hours`` of ``limits``); returns the points' CPU-hours. A ladder's rung
+    (:mod:`granflow.ladder`) is checked so, its scene changed in memory."""
+    require(rung in scene["rungs"], f"{source}: rung = {rung!r} is not defined: allowed {', '.join(scene['rungs'])}")
+    estimates = {name: _check_sweep(name, sweep, scene, rung, source, limits)}
+    return check_campaign_cpu_hours(estimates, rung, limits, source)
+
+
 def check_results_dir(value: str, root: Path, source: str = "config") -> None:
     """Refuse a relative ``results_dir`` that leads out of the project root ``root`` (``..``,
     ``../x``, ``a/../../b``); an absolute path is the way to write elsewhere. Judged on the

@@ -21,7 +21,7 @@ a few words (:func:`short_verdict`); a scene's headlines are picked from its rec
 arrested, accelerating, jammed; those compared with a number of the paper first, at most
 :data:`HEADLINES_PER_SCENE`), and every check, with its source, note and full verdict, stays in
 the validation section (the scene's ``checks.csv``); the page counts them. Where a scene of the
-campaign has a committed ladder (``validation/<scene>/ladder.csv``, ``tools/ladder.py record``: one
+campaign has a committed ladder (``validation/<scene>/ladder.csv``, ``snakemake ladder``: one
 setting at a time from the validation case toward the paper), :func:`ladder_section` shows its first
 headline at the validation case and at the measured rung nearest the paper's setup (the order its
 ladder file declares, ``from_paper``), whatever its number, and, where another rung agrees better with
@@ -255,8 +255,8 @@ def _number(text) -> float:
 
 
 def read_ladder(path: Path) -> list[dict]:
-    """The rows of a committed ladder (``validation/<scene>/ladder.csv``, written by ``tools/ladder.py
-    record``), its numbers as floats."""
+    """The rows of a committed ladder (``validation/<scene>/ladder.csv``, by the rule ``ladder_record``), its
+    numbers as floats."""
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     for r in rows:

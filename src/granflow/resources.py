@@ -354,7 +354,7 @@ def case_state(case_dir: str | Path, record: dict | None = None) -> dict:
 _SUMMED = ("particles", "atom_steps", "cpu_hours", "core_hours", "wall_hours")
 
 
-def _totals(rows: list[dict]) -> dict:
+def plan_totals(rows: list[dict]) -> dict:
     todo = [r for r in rows if r["state"] != "done"]
     out = {"cases": len(rows), "done": len(rows) - len(todo)}
     out.update({k: sum(r[k] for r in rows) for k in _SUMMED})
@@ -394,8 +394,8 @@ def plan_campaign(campaign: dict, results: str | Path, calibration: Calibration 
             scene_rows.append(row)
             rates[name] = est.rate_source
         rows += scene_rows
-        scenes[name] = _totals(scene_rows)
-    return {"rung": rung, "results": str(results), "rows": rows, "scenes": scenes, "total": _totals(rows),
+        scenes[name] = plan_totals(scene_rows)
+    return {"rung": rung, "results": str(results), "rows": rows, "scenes": scenes, "total": plan_totals(rows),
             "rates": rates, "memory": cal.memory_source,
             "assumptions": {"particles_per_rank": PARTICLES_PER_RANK, "max_ranks": max_ranks or DEFAULT_MAX_RANKS,
                             "parallel_efficiency": PARALLEL_EFFICIENCY, "runtime_margin": RUNTIME_MARGIN,
@@ -462,5 +462,5 @@ def format_plan(plan: dict) -> str:
 
 __all__ = ["Stage", "Workload", "Rate", "Calibration", "Estimate", "calibrate", "measured_runs", "estimate",
            "suggested_ranks", "simulate_resources", "pair_factor", "case_state",
-           "plan_campaign", "format_plan", "REFERENCE_RATE", "PARTICLES_PER_RANK", "DEFAULT_MAX_RANKS",
+           "plan_campaign", "plan_totals", "format_plan", "REFERENCE_RATE", "PARTICLES_PER_RANK", "DEFAULT_MAX_RANKS",
            "DEFAULT_MAX_PARTICLES", "default_max_cpu_hours"]

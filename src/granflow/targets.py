@@ -49,12 +49,14 @@ def _listing(values: Iterable[str], most: int = 12) -> str:
 
 def check_targets(targets: Iterable[str], results: str, rung: str, cases: dict[str, list[str]],
                   registered: Iterable[str], cost: dict[str, tuple[list[str], list[str]]] | None = None,
-                  workdir: str | Path = ".") -> None:
+                  workdir: str | Path = ".", ladders: dict[str, dict[str, tuple[str, list[str]]]] | None = None) -> None:
     """Refuse a target under ``results`` that is not part of the campaign.
 
     ``cases`` maps each enabled scene to its case directories (``W~20/phi~0.6``);
     ``registered`` are all scene names; ``cost`` maps each scene of the cost study to
-    its ``(runs, points)``. A target outside ``results``, or a rule name, passes.
+    its ``(runs, points)``; ``ladders`` each scene with a ladder to its rungs run, each ``(its scene rung,
+    its cases)``: a target under ``<results>/ladders/`` names one of them. A target outside ``results``, or a rule
+    name, passes.
     """
     root = Path(os.path.normpath(results)).as_posix()
     registered = set(registered)
@@ -67,6 +69,8 @@ def check_targets(targets: Iterable[str], results: str, rung: str, cases: dict[s
         head = parts[0]
         if head == "cost" and len(parts) >= 3:
             _check_cost(target, parts, cost)
+        elif head == "ladders" and len(parts) >= 2:
+            _check_ladder(target, parts[1:], ladders or {})
         elif head in registered:
             _check_case(target, parts, rung, cases)
 
@@ -89,6 +93,26 @@ def _check_case(target: str, parts: list[str], rung: str, cases: dict[str, list[
         raise ConfigError(f"target {target}: case {case} is not one of the campaign's {scene} cases at rung "
                           f"{rung}: allowed {_listing(cases[scene])} (add it to scenes.{scene}.sweep, where it "
                           f"is validated)")
+
+
+def _check_ladder(target: str, parts: list[str], ladders: dict[str, dict[str, tuple[str, list[str]]]]) -> None:
+    """``<results>/ladders/<scene>/<rung>/<scene>/<scene rung>/<case...>``: each part one of the ladder's."""
+    scene = parts[0]
+    if scene not in ladders:
+        raise ConfigError(f"target {target}: scene {scene} has no ladder: allowed {_listing(sorted(ladders))} "
+                          f"(config/ladders/<scene>.yaml)")
+    if len(parts) < 2 or parts[1] in ("benchmarks", "logs"):
+        return
+    if parts[1] not in ladders[scene]:
+        raise ConfigError(f"target {target}: rung {parts[1]} is not one the {scene} ladder runs: allowed "
+                          f"{_listing(ladders[scene])} (a planned rung runs once it is listed under rungs:)")
+    level, cases = ladders[scene][parts[1]]
+    if len(parts) >= 4 and (parts[2], parts[3]) != (scene, level):
+        raise ConfigError(f"target {target}: allowed {scene}/{level} under the rung's folder")
+    named = [p for p in parts[4:] if "~" in p]
+    if named and "/".join(named) not in cases:
+        raise ConfigError(f"target {target}: case {'/'.join(named)} is not one of the {scene} ladder's rung "
+                          f"{parts[1]}: allowed {_listing(cases)}")
 
 
 def _check_cost(target: str, parts: list[str], cost: dict[str, tuple[list[str], list[str]]]) -> None:

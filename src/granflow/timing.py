@@ -57,6 +57,8 @@ RULE_PHASE = {
     "validation_readme": "report",
     "validation_report": "report",
     "validation_ladder_report": "report",
+    "ladder_record": "report",
+    "accuracy_cost_report": "report",
     "overview": "report",
 }
 #: the rule writing this table: not timed (it would have to time itself)

@@ -217,7 +217,7 @@ def _clean(value):
     return value
 
 
-#: files of ``validation/<scene>/`` written by other tools (``tools/ladder.py record``) that a rewrite of the
+#: files of ``validation/<scene>/`` written by another rule (``ladder_record``, :mod:`granflow.ladder`) that a rewrite of the
 #: record keeps: the ladder is measured on other runs than the record's cases
 KEPT_FILES = ("ladder.csv", "ladder.md", "figures/ladder.png")
 
@@ -529,7 +529,8 @@ def write_readme(folder: Path) -> str:
     ladders = sorted(folder.glob("*/ladder.md"))
     if ladders:
         text += ("\n## Ladders: one knob at a time toward the paper\n\n"
-                 "Written by `tools/ladder.py record config/ladders/<scene>.yaml` from each rung's analysed cases "
+                 "Written by `snakemake ladder` (config/ladders/<scene>.yaml: every rung run, then the record) from "
+                 "each rung's analysed cases "
                  "(the figure: `<scene>/figures/ladder.png`).\n\n")
         for p in ladders:
             text += p.read_text()

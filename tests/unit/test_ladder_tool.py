@@ -1,4 +1,5 @@
-"""tools/ladder.py: each rung's scene file is the ladder's with its knob turned, validated; planned rungs priced."""
+"""granflow.ladder and tools/ladder.py: each rung's scene is the ladder's with its knob turned, validated; planned
+rungs priced."""
 import importlib.util
 import math
 from pathlib import Path
@@ -18,26 +19,23 @@ def test_each_rung_turns_one_knob_and_is_validated(tmp_path):
     ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "silo.yaml")
     base = load_scene(ROOT / ladder["scene_file"])
     for rung in ladder["rungs"]:
-        scene_file, campaign_file = ladder_tool.write_rung(ladder, rung, tmp_path)
-        scene = load_scene(scene_file)
+        campaign = ladder_tool.rung_campaign(ladder, rung, tmp_path)
+        scene = campaign["scenes"]["silo"]["scene"]
         changed = {f"rungs.validation.{k}" for k in scene["rungs"]["validation"]
                    if scene["rungs"]["validation"][k] != base["rungs"]["validation"].get(k)}
         assert changed == set(rung.get("set") or {})          # exactly the rung's knob, nothing else
         assert {k: v for k, v in scene.items() if k != "rungs"} == {k: v for k, v in base.items() if k != "rungs"}
-        campaign = yaml.safe_load(campaign_file.read_text())
-        assert [n for n, s in campaign["scenes"].items() if s["enabled"]] == ["silo"]
+        assert list(campaign["scenes"]) == ["silo"]
         assert campaign["scenes"]["silo"]["sweep"] == {"R": [6.0, 12.0]}
-    # a second write leaves the files (and their time stamps) alone: Snakemake does not rerun a rung
-    before = scene_file.stat().st_mtime_ns
-    ladder_tool.write_rung(ladder, rung, tmp_path)
-    assert scene_file.stat().st_mtime_ns == before
+        assert campaign["results_dir"] == str(tmp_path / "ladders" / "silo" / rung["name"])
+    assert not any(tmp_path.iterdir())                        # in memory: nothing written
 
 
 def test_a_knob_outside_the_schema_is_refused(tmp_path):
     ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "silo.yaml")
     bad = {"name": "bad", "knob": "a Young's modulus of zero", "set": {"rungs.validation.Y_factor": 0.0}}
     with pytest.raises(ConfigError, match="Y_factor"):
-        ladder_tool.write_rung(ladder, bad, tmp_path)
+        ladder_tool.rung_campaign(ladder, bad, tmp_path)
 
 
 def test_planned_rungs_are_priced_and_unrun_rungs_said_so(tmp_path):
@@ -63,10 +61,8 @@ def test_the_base_falls_back_to_the_committed_record():
 def test_a_rung_may_change_one_sweep_value_and_a_refused_rung_is_one_line(tmp_path, capsys, monkeypatch):
     ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "heap.yaml")
     rung = next(r for r in ladder["rungs"] if r["name"] == "one_kn_mdot10")
-    scene_file, campaign_file = ladder_tool.write_rung(ladder, rung, tmp_path)
-    campaign = yaml.safe_load(campaign_file.read_text())
+    campaign = ladder_tool.rung_campaign(ladder, rung, tmp_path)
     assert campaign["scenes"]["heap"]["sweep"] == {"mixture": ["bi1-2"], "feed_rate": [0.01]}
-    assert "sweep {'feed_rate': [0.01]}" in scene_file.read_text().splitlines()[1]
     # 120 g/s through the validation rung's narrow feed: the scene refuses it, prepare says so and goes on
     ladder["rungs"] = [{"name": "narrow120", "knob": "120 g/s, feed as it is", "sweep": {"feed_rate": [0.12]}}]
     ladder["planned"] = []
@@ -124,8 +120,8 @@ def test_the_channel_series_points_are_its_rungs_depths(tmp_path):
     rungs = {r["name"]: r for r in ladder["rungs"]}
     (series,) = ladder["series"]
     for name, x in series["points"].items():
-        scene_file, _ = ladder_tool.write_rung(ladder, rungs[name], tmp_path)
-        assert x == pytest.approx(1.0 / load_scene(scene_file)["rungs"]["validation"]["B"])
+        scene = ladder_tool.rung_campaign(ladder, rungs[name], tmp_path)["scenes"]["channel"]["scene"]
+        assert x == pytest.approx(1.0 / scene["rungs"]["validation"]["B"])
 
 
 # ------------------------------------------------------------------ each rung's order from the paper's setup
@@ -158,11 +154,11 @@ def write_ladder(tmp_path, **change) -> Path:
 
 
 def test_a_rung_without_an_order_or_a_reseed_given_a_step_is_refused(tmp_path):
-    with pytest.raises(SystemExit, match="rung 'B10': from_paper"):
+    with pytest.raises(ConfigError, match="rung 'B10': from_paper"):
         ladder_tool.load_ladder(write_ladder(tmp_path, B10=None))
-    with pytest.raises(SystemExit, match="rung 'B10': from_paper"):
+    with pytest.raises(ConfigError, match="rung 'B10': from_paper"):
         ladder_tool.load_ladder(write_ladder(tmp_path, B10=-1))
-    with pytest.raises(SystemExit, match="replicate rung 'seed2' has from_paper 1, its first rung 4"):
+    with pytest.raises(ConfigError, match="replicate rung 'seed2' has from_paper 1, its first rung 4"):
         ladder_tool.load_ladder(write_ladder(tmp_path, seed2=1))
 
 

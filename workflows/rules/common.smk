@@ -9,6 +9,7 @@ sys.path.insert(0, str(Path(workflow.basedir) / "src"))
 from granflow import registry  # noqa: E402
 from granflow.campaign import validate_campaign  # noqa: E402
 from granflow.config import ConfigError, check_extent, load_yaml  # noqa: E402
+from granflow.ladder import ladder_files, load_ladder, rung_case_dirs, rung_cases, rung_setups  # noqa: E402
 from granflow.resources import simulate_resources  # noqa: E402
 from granflow.targets import check_targets, cli_targets  # noqa: E402
 
@@ -40,6 +41,24 @@ RUNG = CAMPAIGN["rung"]
 #: the campaign's enabled scenes, found through the registry
 SCENES = {name: registry.get(name) for name, sc in CAMPAIGN["scenes"].items() if sc.get("enabled", True)}
 
+try:
+    # every ladder (config/ladders/<scene>.yaml) and each rung it runs, a one-scene campaign checked as the
+    # campaign is (granflow.ladder.rung_campaign): its cases are jobs of the same rules (targets `ladder`,
+    # `ladder_<scene>`), under <results>/ladders/<scene>/<rung>/
+    LADDERS = {}
+    for _file in ladder_files(Path(workflow.basedir)):
+        _ladder = load_ladder(_file)
+        LADDERS[_ladder["scene"]] = {"ladder": _ladder, "file": str(_file),
+                                     "rungs": rung_setups(_ladder, RESULTS, Path(workflow.basedir))}
+except ConfigError as exc:
+    refuse("invalid ladder", exc)
+
+#: where each set of cases lives, (prefix, scene) -> its scene rung and validated scene: the campaign's
+#: cases are <results>/<scene>/<rung>/<case>, a ladder rung's <results>/ladders/<scene>/<rung>/<scene>/<rung>/<case>
+SETUPS = {(RESULTS, name): {"rung": RUNG, "scene": CAMPAIGN["scenes"][name]["scene"]} for name in SCENES}
+SETUPS.update({(setup["results_dir"], scene): {"rung": setup["rung"], "scene": setup["scenes"][scene]["scene"]}
+               for scene, lad in LADDERS.items() for setup in lad["rungs"].values()})
+
 
 def scene_cases(name):
     """Relative case directories (e.g. 'W~20/phi~0.6') of every sweep point of scene `name`."""
@@ -48,9 +67,16 @@ def scene_cases(name):
     return [scene.case_dir(p) for p in scene.sweep_points(sc["scene"], sc.get("sweep") or {}, RUNG)]
 
 
+def ladder_case_dirs(scene):
+    """Every case directory of every rung the scene's ladder runs, rung by rung."""
+    lad = LADDERS[scene]
+    return [d for setup in lad["rungs"].values() for d in rung_case_dirs(lad["ladder"], setup)]
+
+
 def scene_json(wildcards):
-    """The validated scene file as JSON: a change to it reruns the affected cases."""
-    return json.dumps(CAMPAIGN["scenes"][wildcards.scene]["scene"], sort_keys=True)
+    """The validated scene file (the campaign's, or a ladder rung's, changed) as JSON: a change to it reruns
+    the affected cases."""
+    return json.dumps(SETUPS[(wildcards.prefix, wildcards.scene)]["scene"], sort_keys=True)
 
 
 def simulate_threads(wildcards):
@@ -62,11 +88,11 @@ def simulate_threads(wildcards):
     A campaign of small cases thus runs ~1.3-1.45x faster one rank per case.
     Override with `--set-threads simulate=N`.
     """
-    return SCENES[wildcards.scene].simulate_ranks(RUNG, workflow.cores)
+    return registry.get(wildcards.scene).simulate_ranks(wildcards.level, workflow.cores)
 
 
 def analyse_threads(wildcards):
-    return SCENES[wildcards.scene].analyse_threads(workflow.cores)
+    return registry.get(wildcards.scene).analyse_threads(workflow.cores)
 
 
 # Resources of one simulate job, from the case itself (granflow.resources.simulate_resources on
@@ -104,7 +130,9 @@ def check_command_line_targets():
     targets = cli_targets(sys.argv[1:])
     try:
         check_targets(targets, RESULTS, RUNG, {name: scene_cases(name) for name in SCENES},
-                      registry.names(), cost)
+                      registry.names(), cost,
+                      ladders={scene: {name: (s["rung"], rung_cases(lad["ladder"], s)) for name, s in lad["rungs"].items()}
+                               for scene, lad in LADDERS.items()})
     except ConfigError as exc:
         refuse("invalid target", exc)
     say_skipped(targets)

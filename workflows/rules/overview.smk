@@ -10,7 +10,7 @@ def overview_summaries():
 
 
 def overview_ladders():
-    """The committed ladders (validation/<scene>/ladder.csv, tools/ladder.py record) of the campaign's scenes."""
+    """The committed ladders (validation/<scene>/ladder.csv, `snakemake ladder`) of the campaign's scenes."""
     found = (Path(workflow.basedir, "validation", name, "ladder.csv") for name in SCENES if scene_cases(name))
     return [str(p) for p in found if p.exists()]
 

@@ -16,7 +16,9 @@ from snakemake.exceptions import WorkflowError
 from granflow.intermediates import COMMAND_ENV, snakemake_command
 
 SCENE_DIR = RESULTS + "/{scene}/" + RUNG
-CASE = SCENE_DIR + "/{case}"
+# a case of the campaign (prefix the results directory, level its rung) or of a ladder's rung (prefix
+# <results>/ladders/<scene>/<rung>, level the rung's scene rung): the same rules build both (common.smk SETUPS)
+CASE = "{prefix}/{scene}/{level}/{case}"
 ANALYSIS = CASE + "/analysis"
 
 
@@ -37,8 +39,12 @@ os.environ[COMMAND_ENV] = campaign_command()
 
 wildcard_constraints:
     scene="|".join(SCENES) or "no-scene-enabled",
-    # exactly the campaign's cases (granflow.targets refuses others on the command line by name)
-    case="|".join(re.escape(c) for name in SCENES for c in scene_cases(name)) or "no-case",
+    # exactly the campaign's and the ladders' cases (granflow.targets refuses others on the command line by name)
+    case="|".join(sorted({re.escape(c) for name in SCENES for c in scene_cases(name)}
+                         | {re.escape(c) for lad in LADDERS.values() for s in lad["rungs"].values()
+                            for c in rung_cases(lad["ladder"], s)})) or "no-case",
+    prefix="|".join(sorted({re.escape(p) for p, _ in SETUPS})) or "no-prefix",
+    level="|".join(sorted({re.escape(s["rung"]) for s in SETUPS.values()})) or "no-level",
     figure="|".join(sorted({f for s in SCENES.values() for f in s.figures})) or "no-figure",
 
 

@@ -68,10 +68,13 @@ rule validation_readme:
 def validation_report_targets():
     """The committed record's check tables, shown in the report of any other campaign (section
     "validation"; the validation campaign's report shows the record it writes itself), and the
-    committed ladders' figures (tools/ladder.py record: measured on other runs than any campaign's),
+    committed ladders' figures (`snakemake ladder`: measured on other runs than the campaign's),
     shown in every campaign's report."""
     ladders = sorted(p.parent.parent.name for p in Path(workflow.basedir, "validation").glob("*/figures/ladder.png"))
     targets = [f"{RESULTS}/report/validation/{name}_ladder.png" for name in ladders]
+    # what accuracy costs, per scene with a committed ladder and its ladder file (granflow.accuracy_figure)
+    targets += [f"{RESULTS}/report/validation/{name}_accuracy_cost.png" for name in sorted(LADDERS)
+                if Path(workflow.basedir, "validation", name, "ladder.csv").exists()]
     if RUNG == "validation":
         return targets
     found = sorted(p.parent.name for p in Path(workflow.basedir, "validation").glob("*/checks.csv"))
@@ -116,3 +119,31 @@ rule validation_ladder_report:
         RESULTS + f"/benchmarks/{RUNG}/validation_ladder_report_{{recorded}}.tsv"
     shell:
         "cp {input.figure} {output.figure}"
+
+
+def accuracy_cost_inputs(wildcards):
+    """The committed ladder (its table and its file) and, where a cost study of the scene was run in this
+    campaign's results, its errors (the picture's faded points)."""
+    out = {"record": str(Path(workflow.basedir, "validation", wildcards.recorded, "ladder.csv")),
+           "ladder": LADDERS[wildcards.recorded]["file"]}
+    errors = Path(f"{RESULTS}/cost/{wildcards.recorded}/errors.csv")
+    return dict(out, cost_errors=str(errors)) if errors.exists() else out
+
+
+rule accuracy_cost_report:
+    """What accuracy costs in one picture per scene (granflow.accuracy_figure): |difference from the paper|
+    against CPU-hours for every rung of the committed ladder, the series' extrapolation toward the paper's
+    size, the smoke cost study's knobs faded where it was run."""
+    input:
+        unpack(accuracy_cost_inputs),
+    output:
+        figure=report(RESULTS + "/report/validation/{recorded}_accuracy_cost.png",
+                      caption="../report/accuracy_cost.rst", category="validation", subcategory="{recorded}"),
+    wildcard_constraints:
+        recorded="|".join(LADDERS) or "no-ladder",
+    benchmark:
+        RESULTS + f"/benchmarks/{RUNG}/accuracy_cost_report_{{recorded}}.tsv"
+    log:
+        RESULTS + f"/logs/accuracy_cost_{{recorded}}.log",
+    script:
+        "../scripts/accuracy_cost.py"

@@ -1,0 +1,453 @@
+"""A ladder toward a paper: one knob at a time from the validation case, error against the paper vs CPU-hours.
+
+A ladder file (``config/ladders/<scene>.yaml``) names a scene, its rung, a sweep and a list of rungs, each a set
+of scene-file changes (``set:``, dotted keys as ``--set``) or of sweep values (``sweep:``, replacing the ladder's
+for that key) with the knob it turns in words; ``planned:`` rungs are only priced. A rung with ``replicate: true``
+runs the first rung's cases again with another random seed and nothing else: the record reads it as the first
+rung's second sample (:func:`scatter_lines`). A ``series:`` entry names rungs that turn one knob by steps and reads
+the straight line through them at chosen points, such as the paper's size (:func:`series_fit`). Every rung
+declares ``from_paper``, its order from the paper's setup (0 the paper's), which ``ladder.csv`` carries.
+
+The ladders are targets of the workflow (``snakemake ladder``, ``snakemake ladder_<scene>``): each rung run is a
+one-scene campaign in memory (:func:`rung_campaign`: the scene file changed and validated exactly as a
+campaign's) whose cases, under ``<results>/ladders/<scene>/<rung>/<scene>/<scene rung>/<case>``
+(:func:`rung_dir`), are jobs of the campaign's own render / simulate / analyse rules, so a rung resumes, is
+priced (:func:`ladder_plan`, ``granflow plan --config config/ladders/<scene>.yaml``) and runs on a profile as any
+case does. The rule ``ladder_record`` then writes the record (:func:`record`): the scene's own validation
+(:meth:`granflow.registry.Scene.validation`) on each rung's analysed cases, its headline checks, into
+``validation/<scene>/ladder.csv``, ``ladder.md`` and ``figures/ladder.png``: |difference from the paper|
+(relative, with the combined stat ⊕ syst error) against the rung's measured CPU-hours, the planned rungs at
+their priced CPU-hours. ``tools/ladder.py`` is a command over the same functions. Nothing here tunes anything.
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+import textwrap
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import pandas as pd
+
+from granflow import registry
+from granflow.config import PROJECT_ROOT, ConfigError, check_scene_sweep, load_scene, load_yaml
+from granflow.validation import case_summary, format_with_errors
+
+ROOT = PROJECT_ROOT
+#: where the ladder files are, relative to the project root
+LADDER_DIR = "config/ladders"
+#: a rung's name: it names the rung's folder (``<results>/ladders/<scene>/<rung>``)
+RUNG_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+#: a planned rung is priced, never run here: not held to this machine's CPU-hour limit
+PRICED_ONLY_CPU_HOURS = 1e9
+
+
+def load_ladder(path: Path) -> dict:
+    """A ladder file read strictly (:func:`granflow.config.load_yaml`); refused (:class:`ConfigError`, naming the
+    file, the key and what is allowed) without its keys, with an unknown scene, or with a rung whose ``from_paper``
+    is not a number >= 0 or a replicate that steps away from its first rung's order."""
+    data = load_yaml(path)
+    for key in ("scene", "rung", "scene_file", "rungs", "headlines", "from_paper_order"):
+        if key not in data:
+            raise ConfigError(f"ladder: {path}: missing key {key!r}")
+    if data["scene"] not in registry.names():
+        raise ConfigError(f"ladder: {path}: scene = {data['scene']!r}: allowed one of "
+                          f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
+    names = [r.get("name") for r in data["rungs"] + (data.get("planned") or [])]
+    for rung in data["rungs"] + (data.get("planned") or []):
+        name = rung.get("name")
+        if not isinstance(name, str) or not RUNG_NAME.fullmatch(name) or names.count(name) > 1:
+            raise ConfigError(f"ladder: {path}: rung name = {name!r}: allowed a name of letters, digits and _ "
+                              f"given once (it names the rung's folder and target)")
+        order = rung.get("from_paper")
+        if isinstance(order, bool) or not isinstance(order, (int, float)) or not order >= 0:
+            raise ConfigError(f"ladder: {path}: rung {rung.get('name')!r}: from_paper (its order from the paper's "
+                              f"setup, a number >= 0) is {order!r}")
+        if rung.get("replicate") and order != data["rungs"][0].get("from_paper"):
+            raise ConfigError(f"ladder: {path}: replicate rung {rung['name']!r} has from_paper {order}, its first "
+                              f"rung {data['rungs'][0]['from_paper']}: a reseed is no step toward the paper")
+    return data
+
+
+def ladder_files(root: Path = ROOT) -> list[Path]:
+    """Every ladder file of the project (``config/ladders/<scene>.yaml``)."""
+    return sorted((Path(root) / LADDER_DIR).glob("*.yaml"))
+
+
+def with_from_paper(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
+    """The ladder table with each rung's ``from_paper`` (its order from the paper's setup, from the ladder
+    file) as the column after ``knob``; an earlier ``from_paper`` column is replaced."""
+    order = {r["name"]: r["from_paper"] for r in ladder["rungs"] + (ladder.get("planned") or [])}
+    out = df.drop(columns=["from_paper"], errors="ignore")
+    out.insert(list(out.columns).index("knob") + 1 if "knob" in out else 0, "from_paper",
+               [order.get(name, np.nan) for name in out["rung"]])
+    return out
+
+
+def order_line(ladder: dict) -> str:
+    """The ladder's order of its rungs from the paper's setup, as ``ladder.md`` says it (nothing for a ladder
+    that declares none: :func:`load_ladder` refuses a file without it)."""
+    rungs = ladder["rungs"] + (ladder.get("planned") or [])
+    if "from_paper_order" not in ladder or any("from_paper" not in r for r in rungs):
+        return ""
+    rungs = sorted(rungs, key=lambda r: r["from_paper"])
+    return ("Order from the paper's setup (`from_paper`; 0 is the paper's, the report's front page shows the "
+            "measured rung nearest it): " + ", ".join(f"{r['name']} {r['from_paper']:g}" for r in rungs)
+            + f". {ladder['from_paper_order'][0].upper()}{ladder['from_paper_order'][1:]}.\n\n")
+
+
+def rung_level(ladder: dict, rung: dict) -> str:
+    """The scene rung (validation, paper, ...) a ladder rung runs at: its own ``rung:``, else the ladder's."""
+    return rung.get("rung", ladder["rung"])
+
+
+def rung_dir(results: Path, ladder: dict, name: str) -> Path:
+    """The rung's results directory, ``<results>/ladders/<scene>/<rung>``: its cases are
+    ``<rung dir>/<scene>/<scene rung>/<case>``, a campaign's layout under it."""
+    return Path(results) / "ladders" / ladder["scene"] / name
+
+
+def rung_cases_root(results: Path, ladder: dict, rung: dict) -> Path:
+    """Where the rung's case directories are: under :func:`rung_dir`, or, for runs made by ``tools/ladder.py
+    prepare`` before the ladders were targets of the workflow, ``<results>/<scene>/<rung>/results/<scene>/<scene
+    rung>`` (read, never written)."""
+    tail = Path(ladder["scene"]) / rung_level(ladder, rung)
+    new = rung_dir(results, ladder, rung["name"]) / tail
+    old = Path(results) / ladder["scene"] / rung["name"] / "results" / tail
+    return old if not new.exists() and old.exists() else new
+
+
+def _overrides(rung: dict) -> list[str]:
+    return [f"{k}={json.dumps(v) if not isinstance(v, str) else v}" for k, v in (rung.get("set") or {}).items()]
+
+
+def rung_sweep(ladder: dict, rung: dict) -> dict:
+    """The rung's sweep: the ladder's, with the values the rung's ``sweep:`` gives replacing its keys'."""
+    return {**(ladder.get("sweep") or {}), **(rung.get("sweep") or {})}
+
+
+def rung_campaign(ladder: dict, rung: dict, results: Path, root: Path = ROOT, priced_only: bool = False) -> dict:
+    """The rung as a validated one-scene campaign, in memory (the shape :func:`granflow.campaign.validate_campaign`
+    returns, which :func:`granflow.resources.plan_campaign` prices): the ladder's scene file with the rung's
+    ``set:`` applied and validated by the scene's schema, its sweep checked by the scene's pre-run checks and size
+    limits exactly as a campaign's; ``results_dir`` the rung's directory (:func:`rung_dir`). A rung
+    ``priced_only`` (planned, never run here) is not held to this machine's CPU-hour limit."""
+    scene = load_scene(Path(root) / ladder["scene_file"], _overrides(rung))
+    level, sweep = rung_level(ladder, rung), rung_sweep(ladder, rung)
+    source = f"ladder {ladder['scene']}, rung {rung['name']} ({ladder['scene_file']} with {rung.get('set') or {}})"
+    limits = {"max_cpu_hours": PRICED_ONLY_CPU_HOURS} if priced_only else {}
+    check_scene_sweep(ladder["scene"], scene, sweep, level, source, limits)
+    return {"rung": level, "results_dir": str(rung_dir(results, ladder, rung["name"])), **limits,
+            "scenes": {ladder["scene"]: {"enabled": True, "sweep": sweep, "scene": scene}}}
+
+
+def plan(ladder: dict, rung: dict, results: Path, root: Path = ROOT, priced_only: bool = False) -> dict:
+    """The rung's plan (:func:`granflow.resources.plan_campaign` of :func:`rung_campaign`): its cases priced,
+    each with its state in the rung's directory (done, partial: a rerun resumes, todo)."""
+    from granflow.resources import plan_campaign
+
+    cfg = rung_campaign(ladder, rung, results, root, priced_only)
+    return plan_campaign(cfg, cfg["results_dir"])
+
+
+def ladder_plan(ladder: dict, results: Path, root: Path = ROOT, **kwargs) -> dict:
+    """Every rung of the ladder priced as one campaign: the rungs run (``rungs:``) and the planned ones, each
+    row's ``scene`` ``<scene>/<rung>`` (``granflow plan --config config/ladders/<scene>.yaml``)."""
+    from granflow.resources import plan_campaign, plan_totals
+
+    out = None
+    for rung in ladder["rungs"] + (ladder.get("planned") or []):
+        cfg = rung_campaign(ladder, rung, results, root, priced_only=rung in (ladder.get("planned") or []))
+        p = plan_campaign(cfg, cfg["results_dir"], **kwargs)
+        label = f"{ladder['scene']}/{rung['name']}" + ("" if rung in ladder["rungs"] else " (planned)")
+        rows = [dict(r, scene=label) for r in p["rows"]]
+        if out is None:
+            out = dict(p, rows=[], scenes={}, rates={}, rung=f"ladder {ladder['scene']}", results=str(results))
+        out["rows"] += rows
+        out["scenes"][label] = plan_totals(rows)
+        out["rates"][label] = p["rates"][ladder["scene"]]
+    out["total"] = plan_totals(out["rows"])
+    return out
+
+
+def rung_setups(ladder: dict, results: Path, root: Path = ROOT) -> dict[str, dict]:
+    """Each rung run (``rungs:``, not the planned ones) as :func:`rung_campaign`, by name: what the workflow's
+    ``ladder`` targets build, with the render / simulate / analyse rules of a campaign."""
+    return {rung["name"]: rung_campaign(ladder, rung, results, root) for rung in ladder["rungs"]}
+
+
+def rung_cases(ladder: dict, setup: dict) -> list[str]:
+    """The rung's cases (``W~20/phi~0.6``: each named by its sweep values), in sweep order."""
+    scene, sc = registry.get(ladder["scene"]), setup["scenes"][ladder["scene"]]
+    return [scene.case_dir(p) for p in scene.sweep_points(sc["scene"], sc["sweep"], setup["rung"])]
+
+
+def rung_case_dirs(ladder: dict, setup: dict) -> list[str]:
+    """The rung's case directories (``<rung dir>/<scene>/<scene rung>/<case>``), in sweep order."""
+    return [f"{setup['results_dir']}/{ladder['scene']}/{setup['rung']}/{c}" for c in rung_cases(ladder, setup)]
+
+
+def rung_checks(ladder: dict, rung: dict, results: Path) -> tuple[list, list[dict]]:
+    """(the headline checks of the rung's analysed cases, their case summaries)."""
+    base = rung_cases_root(results, ladder, rung)
+    cases = {str(p.parent.parent.relative_to(base)): p.parent.parent
+             for p in sorted(base.glob("**/analysis/scalars.json"))}
+    if not cases:
+        return [], []
+    result = registry.get(ladder["scene"]).validation(base, cases)
+    keep = [c for c in result.checks if any(c.quantity.startswith(h) for h in ladder["headlines"])]
+    return keep, [case_summary(p) for p in cases.values()]
+
+
+def committed_checks(ladder: dict) -> tuple[list, list[dict]]:
+    """The base rung read from the committed record (``validation/<scene>/summary.json``) when its runs
+    are not at hand: the headline checks of the cases matching the ladder's sweep (each key with one value,
+    named ``key~value`` in the case), or sweep-wide ones."""
+    from granflow.validation import Check
+
+    path = ROOT / "validation" / ladder["scene"] / "summary.json"
+    if not path.exists():
+        return [], []
+    summary = json.loads(path.read_text())
+    values = [v[0] for v in (ladder.get("sweep") or {}).values() if len(v) == 1]
+
+    def matches(case: str) -> bool:
+        parts = [p.split("~", 1)[1] for p in case.split("/") if "~" in p]
+        return all(any(_same(p, v) for p in parts) for v in values)
+
+    keep, dirs = [], set()
+    for c in summary["checks"]:
+        if any(c["quantity"].startswith(h) for h in ladder["headlines"]) and (c["case"] == "sweep" or matches(c["case"])):
+            nan = float("nan")
+            keep.append(Check(c["quantity"], c["paper"], c["source"], nan if c["ours"] is None else c["ours"],
+                              nan if c.get("error") is None else c["error"], case=c["case"],
+                              paper_range=tuple(c["paper_range"]) if c.get("paper_range") else None,
+                              paper_error=c.get("paper_error") or 0.0, note=c.get("note", ""),
+                              syst=nan if c.get("syst") is None else c["syst"], variants=c.get("variants", "")))
+            dirs.add(c["case"])
+    cases = [dict(c, cpu_hours=float("nan") if c.get("cpu_hours") is None else c["cpu_hours"])
+             for c in summary["cases"] if c["dir"] in dirs or "sweep" in dirs]
+    return keep, cases
+
+
+def _same(text: str, value) -> bool:
+    try:
+        return math.isclose(float(text), float(value))
+    except ValueError:
+        return text == str(value)
+
+
+def _rel_error(check) -> float:
+    """The check's combined error (stat ⊕ syst) relative to the paper's nearest value (absolute against 0)."""
+    lo, hi = sorted(check.paper_range)
+    nearest = min(max(check.ours, lo), hi)
+    err = math.hypot(*(e if math.isfinite(e) else 0.0 for e in (check.error, check.syst)))
+    return err / abs(nearest) if nearest else err
+
+
+def table(ladder: dict, results: Path) -> pd.DataFrame:
+    rows = []
+    for rung in ladder["rungs"]:
+        checks, cases = rung_checks(ladder, rung, results)
+        state = "run"
+        if not checks and not rung.get("set") and not rung.get("rung") and not rung.get("sweep"):
+            checks, cases = committed_checks(ladder)
+            state = "run (the committed record)"
+        cpu = sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"]))
+        expected = math.prod(len(v) for v in rung_sweep(ladder, rung).values())
+        if checks and state == "run" and len(cases) < expected:
+            rows.append({"rung": rung["name"], "knob": rung["knob"], "cases": len(cases), "cpu_hours": cpu,
+                         "state": f"incomplete: {len(cases)} of {expected} cases analysed"})
+            continue
+        if not checks:
+            rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "not run", "cpu_hours": np.nan})
+        ended = [f"{c['status']}: {c['reason']}" for c in cases if c.get("status") not in ("steady", None)]
+        if checks and ended and not any(math.isfinite(c.ours) for c in checks):
+            # ran, but nothing measurable: the run's own status says why (a guard, no steady state, ...)
+            rows.append({"rung": rung["name"], "knob": rung["knob"], "cases": len(cases), "cpu_hours": cpu,
+                         "state": "ran, not measured: " + "; ".join(ended)})
+            continue
+        for c in checks:
+            rows.append({"rung": rung["name"], "knob": rung["knob"], "state": state, "quantity": c.quantity,
+                         "replicate": bool(rung.get("replicate")),
+                         "paper": c.paper, "ours": c.ours, "stat": c.error, "syst": c.syst, "verdict": c.verdict,
+                         "abs_rel_difference": abs(c.difference) if math.isfinite(c.difference) else np.nan,
+                         "rel_error": _rel_error(c) if c.paper_range and math.isfinite(c.ours) else np.nan,
+                         "paper_lo": min(c.paper_range) if c.paper_range else np.nan,
+                         "paper_hi": max(c.paper_range) if c.paper_range else np.nan,
+                         "cases": len(cases), "particles": ", ".join(sorted({f"{c['particles']:,}" for c in cases
+                                                                             if c.get("particles")})),
+                         "cpu_hours": cpu})
+    for rung in ladder.get("planned", []):
+        p = plan(ladder, rung, results, priced_only=True)
+        rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "planned (cost model, not run)",
+                     "cases": len(p["rows"]), "particles": ", ".join(f"{r['particles']:,}" for r in p["rows"]),
+                     "cpu_hours": p["total"]["cpu_hours"]})
+    return with_from_paper(pd.DataFrame(rows), ladder)
+
+
+def figure(df: pd.DataFrame, ladder: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    run = df[df["state"].str.startswith("run")] if "state" in df else df.iloc[:0]
+    heads = list(dict.fromkeys(run["quantity"])) if len(run) else []
+    fig, axes = plt.subplots(1, max(1, len(heads)), figsize=(4.6 * max(1, len(heads)), 4.2), squeeze=False)
+    planned = df[df["state"].str.startswith("planned")]
+    for ax, q in zip(axes[0], heads):
+        sub = run[run["quantity"] == q]
+        for i, (_, r) in enumerate(sub.iterrows()):
+            ax.errorbar([r["cpu_hours"]], [r["abs_rel_difference"]], yerr=[r["rel_error"]], marker="os^Dv<>"[i % 7],
+                        capsize=3, ls="none", label=r["rung"])
+        for _, r in planned.iterrows():
+            ax.axvline(r["cpu_hours"], color="0.5", ls=":", lw=1)
+            ax.text(r["cpu_hours"], ax.get_ylim()[1] * 0.95, f" {r['rung']}: {r['cpu_hours']:.3g} CPU-h (planned)",
+                    rotation=90, va="top", ha="right", fontsize=7, color="0.4")
+        ax.set(xscale="log", xlabel="CPU-hours (the rung's cases)", ylabel="|ours − paper| / paper (absolute where 0)",
+               title=q if len(q) < 48 else q[:46] + "…")
+        ax.title.set_fontsize(8)
+        ax.set_ylim(bottom=0)
+        ax.legend(fontsize=7)
+    sweep = ", ".join(f"{k} {'/'.join(map(str, v))}" for k, v in (ladder.get("sweep") or {}).items())
+    fig.suptitle(textwrap.fill(f"{ladder['scene']} ladder (rung {ladder['rung']}; {sweep}): error against the paper "
+                               "(bars: stat ⊕ syst) against cost", 70), fontsize=9)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+
+
+def markdown(df: pd.DataFrame, ladder: dict) -> str:
+    text = (f"### {ladder['scene']}: ladder toward the paper (rung {ladder['rung']}, sweep {ladder.get('sweep')})\n\n"
+            "One knob per rung from the validation case (`config/ladders/" + f"{ladder['scene']}.yaml`, "
+            f"`snakemake ladder_{ladder['scene']}`); each headline by the scene's own validation, ours ± stat ± syst; CPU-hours "
+            "measured (planned rungs: the cost model's upper bound).\n\n" + order_line(ladder) +
+            "| rung | knob | quantity | ours ± stat ± syst | paper | verdict | CPU-h |\n|---|---|---|---|---|---|---|\n")
+    for _, r in df.iterrows():
+        if not str(r["state"]).startswith("run"):
+            cpu = f"{r['cpu_hours']:.3g}" if math.isfinite(r["cpu_hours"]) else "–"
+            text += f"| {r['rung']} | {r['knob']} | – | {r['state']} | | | {cpu} |\n"
+            continue
+        ours = format_with_errors(r["ours"], r["stat"], r["syst"])
+        where = "" if r["state"] == "run" else f" ({r['state'][5:-1]})"
+        text += (f"| {r['rung']} | {r['knob']}{where} | {r['quantity']} | {ours} | {r['paper']} | "
+                 f"{r['verdict']} | {r['cpu_hours']:.2f} |\n")
+    return text + "\n" + scatter_lines(df, ladder) + series_lines(df, ladder)
+
+
+def scatter_lines(df: pd.DataFrame, ladder: dict) -> str:
+    """What the ladder's replicate rungs say (a rung with ``replicate: true`` runs the first rung's cases again
+    with another random seed and nothing else): per headline, how far the two samples lie apart, and each
+    other rung's shift from the first rung beside that run-to-run scatter. Two samples differing by Δ put one
+    run's scatter near |Δ|/√2; a rung's shift no larger than |Δ| is not told apart from a reseed."""
+    replicas = [r["name"] for r in ladder["rungs"] if r.get("replicate")]
+    run = df[df["state"].astype(str).str.startswith("run")] if len(df) else df
+    if not replicas or not len(run):
+        return ""
+    first = ladder["rungs"][0]["name"]
+    lines = []
+    for q in dict.fromkeys(run["quantity"]):
+        sub = run[run["quantity"] == q].drop_duplicates("rung").set_index("rung")
+        if first not in sub.index:
+            continue
+        base = sub.loc[first, "ours"]
+        for rep in (r for r in replicas if r in sub.index):
+            spread = abs(sub.loc[rep, "ours"] - base)
+            if not math.isfinite(spread):
+                continue
+            shifts = [f"{name} {sub.loc[name, 'ours'] - base:+.3g}"
+                      + (f" ({abs(sub.loc[name, 'ours'] - base) / spread:.1f} × |Δ|)" if spread > 0 else "")
+                      for name in sub.index if name not in (first, *replicas) and math.isfinite(sub.loc[name, "ours"])]
+            lines.append(f"- {q}: {first} and its replicate {rep} (another seed, nothing else) differ by "
+                         f"Δ = {sub.loc[rep, 'ours'] - base:+.3g} (one run's scatter ≈ |Δ|/√2 = {spread / math.sqrt(2):.2g}, "
+                         f"against a quoted stat error of {sub.loc[first, 'stat']:.2g})"
+                         + ("; the other rungs' shifts from " + first + ": " + ", ".join(shifts) if shifts else "")
+                         + ". A shift no larger than |Δ| is not told apart from a reseed.")
+    if not lines:
+        return ""
+    return "Run-to-run scatter (replicate rungs):\n\n" + "\n".join(lines) + "\n\n"
+
+
+class SeriesFit(NamedTuple):
+    """A straight line y = intercept + slope x through a series' rungs (:func:`series_fit`)."""
+    rungs: list
+    x: np.ndarray
+    slope: float
+    intercept: float
+    cov: np.ndarray          # of (slope, intercept), from the errors given (not rescaled by χ²)
+    chi2: float              # per degree of freedom
+    paper: tuple             # (lo, hi) of the paper's value or range
+
+    def at(self, x0: float) -> tuple[float, float]:
+        """The line at ``x0`` and its error from the fit's covariance."""
+        v = np.array([float(x0), 1.0])                     # polyfit's order: slope, intercept
+        return float(self.slope * x0 + self.intercept), float(np.sqrt(v @ self.cov @ v))
+
+
+def series_fit(df: pd.DataFrame, series: dict, quantity: str) -> SeriesFit | None:
+    """The straight line in the series' x through its rungs' measured values of ``quantity`` (weighted least
+    squares, weights 1/(stat² + syst²)); None with fewer than three finite rungs (no degree of freedom) or a
+    rung without an error."""
+    run = df[df["state"].astype(str).str.startswith("run")] if len(df) else df
+    points = series["points"]
+    if not len(run):
+        return None
+    sub = run[(run["quantity"] == quantity) & run["rung"].isin(list(points))].drop_duplicates("rung")
+    sub = sub[np.isfinite(sub["ours"].astype(float))]
+    if len(sub) < 3:
+        return None
+    x = np.array([float(points[r]) for r in sub["rung"]])
+    y = sub["ours"].to_numpy(float)
+    err = np.hypot(sub["stat"].fillna(0).to_numpy(float), sub["syst"].fillna(0).to_numpy(float))
+    if not np.all(err > 0):
+        return None
+    (slope, intercept), cov = np.polyfit(x, y, 1, w=1 / err, cov="unscaled")   # cov of the errors given
+    chi2 = float((((y - intercept - slope * x) / err) ** 2).sum()) / (len(x) - 2)
+    paper = (sub["paper_lo"].iloc[0], sub["paper_hi"].iloc[0]) if "paper_lo" in sub else (np.nan, np.nan)
+    return SeriesFit(list(sub["rung"]), x, float(slope), float(intercept), cov, chi2, paper)
+
+
+def series_lines(df: pd.DataFrame, ladder: dict) -> str:
+    """The ladder's ``series:``: rungs that turn one knob by steps (``points``: rung → x, e.g. 1/B), each headline
+    fitted as a straight line in x (:func:`series_fit`) and read at the points ``at`` (label → x, e.g. the
+    paper's size, or x = 0 for the infinite system) with the fit's error and the scene's verdict there. Three
+    rungs or more (a fit with a degree of freedom); the line is an assumed form."""
+    from granflow.validation import verdict
+
+    run = df[df["state"].astype(str).str.startswith("run")] if len(df) else df
+    lines = []
+    for series in ladder.get("series") or []:
+        for q in (dict.fromkeys(run["quantity"]) if len(run) else []):
+            fit = series_fit(df, series, q)
+            if fit is None:
+                continue
+            reads = []
+            for label, x0 in series["at"].items():
+                y0, e0 = fit.at(x0)
+                words = (verdict(y0, e0, fit.paper)[0] if all(np.isfinite(fit.paper)) else "no paper range")
+                reads.append(f"at {label} ({series['x']} = {float(x0):g}) {format_with_errors(y0, e0)}: {words}")
+            lines.append(f"- {q} along {series['knob']}, a straight line in {series['x']} through "
+                         f"{', '.join(fit.rungs)} (slope {fit.slope:+.3g} ± {np.sqrt(fit.cov[0, 0]):.2g}, "
+                         f"χ²/ν = {fit.chi2:.2f}): " + "; ".join(reads)
+                         + ". The straight line is assumed, not measured: a trend, not a result.")
+    if not lines:
+        return ""
+    return "Series (rungs along one knob, extrapolated):\n\n" + "\n".join(lines) + "\n\n"
+
+
+def record(ladder: dict, results: Path, out: Path) -> str:
+    """The ladder's record from its rungs' analysed cases under ``results`` (:func:`table`): ``<out>/ladder.csv``,
+    ``ladder.md`` and ``figures/ladder.png`` (the workflow's rule ``ladder_record``; ``tools/ladder.py record``).
+    Returns the markdown."""
+    df = table(ladder, results)
+    out = Path(out)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    df.to_csv(out / "ladder.csv", index=False, float_format="%.6g")
+    text = markdown(df, ladder)
+    (out / "ladder.md").write_text(text)
+    figure(df, ladder, out / "figures" / "ladder.png")
+    return text
+

@@ -323,7 +323,8 @@ def case_more_checks(case) -> list[Check]:
                      note=f"weighted quadratic of −ln φ in x from the wall to where φ reaches 0.63 (x = {end:.3g} d_p, "
                           f"the paper's plug edge), its quadratic term t-tested (ν = n − 3, error scaled by √(χ²/ν) "
                           f"when above 1, so structure that scatters the bins does not count as curvature); ours is "
-                          f"the largest p of the paper's three exclusions: {readings}. {INDEPENDENT}"))
+                          f"the largest p over leaving out the first one, two or three bins (the paper: not linear "
+                          f"'even if the first two or three points ... are excluded'): {readings}. {INDEPENDENT}"))
 
     edge = a.zones.x_plug_phi063
     lc = conduction_length(a, edge) if math.isfinite(edge) else {"l_c": NAN, "se": NAN, "n": 0, "chi2_nu": NAN}
@@ -335,7 +336,9 @@ def case_more_checks(case) -> list[Check]:
                      note=f"T^(3/2) = T_c^(3/2) cosh((W/2 − x)/l_c) (eq. B13 with zero flux at the centre, the paper's "
                           f"fit) over the {lc['n']} folded bins from where φ reaches 0.63 (x = {edge:.3g} d_p) to the "
                           f"centre; χ²/ν = {lc['chi2_nu']:.2g}; {INDEPENDENT}, error scaled by √(χ²/ν) when above 1. "
-                          f"The paper's plug at W = 100 d_p is wider than ours at W = {a.W:g} d_p"))
+                          f"The paper's plug at W = 100 d_p is wider than ours at W = {a.W:g} d_p"
+                          + ("" if math.isfinite(lc["l_c"]) or not lc["n"] else
+                             ". T does not rise towards the plug edge as a cosh does: no finite l_c")))
 
     phi_mean = float(case.record["parameters"]["phi_mean"])
     thermo_path = case.path / "run" / "thermo.csv"

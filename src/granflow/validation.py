@@ -140,7 +140,8 @@ def scene_validation(scene, scene_dir: Path, cases: dict[str, Path]) -> Validati
         return ValidationResult(checks=[], note=NO_VALIDATION)
     # each seed's cases judged as a campaign without replicates would be, then pooled check by check
     groups = replicates.split(cases)
-    results = [with_kinds(scene.validation(scene_dir, group), scene.check_kinds) for group in groups.values()]
+    kinds = getattr(scene, "check_kinds", {})
+    results = [with_kinds(scene.validation(scene_dir, group), kinds) for group in groups.values()]
     return replicates.pool(results, list(groups))
 
 

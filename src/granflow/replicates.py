@@ -62,7 +62,7 @@ def pool(results: list, seeds: list) -> object:
     """One :class:`~granflow.validation.ValidationResult` from the replicates' (same order as ``seeds``).
 
     Checks are matched by quantity and case; a check missing from a replicate, or NaN there, is
-    pooled over those that have it (its ``n_replicates`` says how many). Profiles, figures and
+    pooled over those that have it (its ``n_replicates`` says how many), a check only one made kept. Profiles, figures and
     differences are the first replicate's.
     """
     from .validation import Check  # granflow.validation calls pool: imported here, not at the top
@@ -70,9 +70,13 @@ def pool(results: list, seeds: list) -> object:
     if len(results) == 1:
         return results[0]
     index = [{(c.quantity, c.case): c for c in r.checks} for r in results]
+    # every check any replicate made, in the order first met (a replicate may lack one the others have)
+    order = {}
+    for idx in index:
+        for key, c in idx.items():
+            order.setdefault(key, c)
     pooled = []
-    for first in results[0].checks:
-        key = (first.quantity, first.case)
+    for key, first in order.items():
         same = [(seed, idx[key]) for seed, idx in zip(seeds, index) if key in idx]
         have = [(seed, c) for seed, c in same if math.isfinite(c.ours)]
         values = np.array([c.ours for _, c in have])

@@ -89,6 +89,12 @@ def test_pool_two_replicates_may_differ_one_may_not():
     half = replicates.pool([_result(0.95, 0.002), _result(float("nan"), 0.002)], [1, 2])
     assert half.checks[0].n_replicates == 1 and half.checks[0].ours == pytest.approx(0.95)
     assert math.isnan(half.checks[0].run_to_run) and "1 of 2 seeds" in half.checks[0].note
+    # a check only the second replicate made is kept, as one sample
+    extra = _result(0.95, 0.002)
+    extra.checks.append(Check("late", "1", "§3", 1.0, 0.01, case="theta~25", paper_range=(1.0, 1.0)))
+    both = replicates.pool([_result(0.95, 0.002), extra], [1, 2])
+    (late,) = [c for c in both.checks if c.quantity == "late"]
+    assert late.n_replicates == 1 and late.ours == 1.0
 
 
 class _Toy:

@@ -53,7 +53,7 @@ from . import one_scene, registry
 from .campaign import load_campaign
 from .config import (LIMIT_KEYS, PROJECT_ROOT, ConfigError, check_limits, check_rung, check_size, load_scene,
                      load_yaml)
-from .preflight import PreflightError, check_ranks
+from .preflight import PreflightError, check_ranks, read_record
 
 #: exit codes: a user's mistake (bad input, refused before anything runs) and a run that failed
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -322,7 +322,7 @@ def cmd_run(args) -> int:
         raise UsageError(f"--np {args.np} is not allowed: allowed 1 <= np")
     path = _check_case_dir(args.case_dir)
     # a user's --np only: the workflow's ranks come from the scene and the machine
-    check_ranks(json.loads((path / "params.json").read_text()), args.np)
+    check_ranks(read_record(path), args.np)  # a hand-edited params.json is refused naming its key
     try:
         status = run_case(path, args.np)
     except RunError as exc:

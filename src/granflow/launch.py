@@ -1,6 +1,8 @@
 """How a run starts LAMMPS: the MPI launcher's argv and the executables of a run.
 
-Moved from :mod:`granflow.runner` unchanged; the runner imports it.
+``GRANFLOW_LMP`` and ``GRANFLOW_MPIRUN`` name the executables; a value that is not an executable
+LAMMPS (its ``-h`` banner) or MPI launcher is refused (:class:`ToolError`, exit 2), never replaced by
+what is on PATH. The LAMMPS that runs is recorded with its version (``status.json``'s ``lammps``).
 """
 from __future__ import annotations
 
@@ -8,13 +10,59 @@ import os
 import re
 import shlex
 import shutil
+import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from .preflight import PreflightError
 
-class LauncherError(ValueError):
-    """An MPI launcher that is not one of the forms :func:`launcher_argv` accepts."""
+
+class LauncherError(PreflightError):
+    """An MPI launcher that is not one of the forms :func:`launcher_argv` accepts (exit 2)."""
+
+
+class ToolError(PreflightError):
+    """``GRANFLOW_LMP`` or ``GRANFLOW_MPIRUN`` naming no executable LAMMPS or MPI launcher (exit 2)."""
+
+
+#: the first line of LAMMPS's ``-h`` text, followed by its version (e.g. "22 Jul 2025 - Update 4")
+LAMMPS_BANNER = "Large-scale Atomic/Molecular Massively Parallel Simulator - "
+#: seconds ``lmp -h`` may take (0.45 s measured for the wheel's lmp on a loaded 2-core machine)
+BANNER_TIMEOUT_S = 60.0
+
+
+def executable(value: str, variable: str) -> str:
+    """The program ``value`` (a path, or a name found on PATH) names, if it is an executable regular
+    file; else :class:`ToolError` naming ``variable`` and what the value is."""
+    path = Path(value) if "/" in value else Path(shutil.which(value) or value)
+    where = f"{variable}={value!r}"
+    if not path.exists():
+        found = "no such file" if "/" in value else "not found on PATH"
+        raise ToolError(f"{where}: {found}; give the path of an executable (unset it for the venv's)")
+    if not path.is_file():
+        raise ToolError(f"{where} is {'a directory' if path.is_dir() else 'not a regular file'}, not an executable")
+    if not os.access(path, os.X_OK):
+        raise ToolError(f"{where} is not executable (chmod +x it, or name another)")
+    return str(path)
+
+
+def lammps_version(lmp: str, variable: str = "GRANFLOW_LMP") -> str:
+    """LAMMPS's version, from the banner of ``lmp -h``; :class:`ToolError` if ``lmp`` prints none."""
+    try:
+        out = subprocess.run([lmp, "-h"], stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                             errors="replace", timeout=BANNER_TIMEOUT_S).stdout
+    except subprocess.TimeoutExpired:
+        raise ToolError(f"{variable}={lmp!r} is not LAMMPS: '{lmp} -h' did not end within "
+                        f"{BANNER_TIMEOUT_S:.0f} s") from None
+    except OSError as exc:
+        raise ToolError(f"{variable}={lmp!r} cannot be run: {exc.strerror or exc}") from None
+    for line in out.splitlines():
+        if line.strip().startswith(LAMMPS_BANNER):
+            return line.strip()[len(LAMMPS_BANNER):].strip()
+    first = next((line.strip() for line in out.splitlines() if line.strip()), "nothing")
+    raise ToolError(f"{variable}={lmp!r} is not LAMMPS: '{lmp} -h' printed {first[:80]!r}, not LAMMPS's "
+                    f"banner {LAMMPS_BANNER.strip(' -')!r}")
 
 
 #: ``srun --mpi=`` plugin types a launcher may name (Slurm's PMI flavours)
@@ -109,22 +157,42 @@ class Tools:
     :func:`launcher_argv` accepts), else the venv's ``mpirun``. ``launcher``, when given (the
     ``mpi`` resource of a workflow profile, see ``profiles/slurm``), replaces it: e.g.
     ``srun --mpi=pmi2`` inside a SLURM allocation. Either is checked when the runner is built.
+    ``version`` is LAMMPS's (from its ``-h`` banner), known when :meth:`default` chose it.
     """
 
     lmp: str
     mpirun: str
     launcher: str | None = None
+    version: str | None = None
 
     @classmethod
     def default(cls, launcher: str | None = None) -> "Tools":
+        """The venv's lmp and mpirun (else those on PATH), or those ``GRANFLOW_LMP`` and
+        ``GRANFLOW_MPIRUN`` name, which must be an executable LAMMPS and an MPI launcher
+        (:class:`ToolError` otherwise: no fallback to PATH)."""
         bindir = Path(sys.executable).parent
-        lmp = os.environ.get("GRANFLOW_LMP") or str(bindir / "lmp")
-        mpirun = os.environ.get("GRANFLOW_MPIRUN") or str(bindir / "mpirun")
-        if not Path(lmp).exists():
-            lmp = shutil.which("lmp") or lmp
-        if "/" in mpirun and not Path(mpirun).exists():
-            mpirun = shutil.which("mpirun") or mpirun
-        return cls(lmp=lmp, mpirun=mpirun, launcher=launcher or None)
+        lmp, mpirun = os.environ.get("GRANFLOW_LMP"), os.environ.get("GRANFLOW_MPIRUN")
+        if lmp:
+            lmp = executable(lmp, "GRANFLOW_LMP")
+        else:
+            lmp = str(bindir / "lmp") if (bindir / "lmp").exists() else shutil.which("lmp") or str(bindir / "lmp")
+        if mpirun:
+            try:
+                words = [mpirun] if Path(mpirun).is_file() else shlex.split(mpirun)
+            except ValueError:
+                words = []  # launcher_argv names the fault
+            if words:
+                executable(words[0], "GRANFLOW_MPIRUN")
+            try:  # an executable that is not an MPI launcher (e.g. /bin/sh) is refused
+                launcher_argv(mpirun, 1)
+            except LauncherError as exc:
+                raise ToolError(f"GRANFLOW_MPIRUN: {exc}") from None
+        else:
+            mpirun = str(bindir / "mpirun")
+            if not Path(mpirun).exists():
+                mpirun = shutil.which("mpirun") or mpirun
+        version = lammps_version(lmp, "GRANFLOW_LMP" if os.environ.get("GRANFLOW_LMP") else "lmp")
+        return cls(lmp=lmp, mpirun=mpirun, launcher=launcher or None, version=version)
 
     @property
     def spec(self) -> str:

@@ -42,6 +42,7 @@ from .caselock import LOCK_NAME, case_lock
 from .interrupts import (INTERRUPTING, Interrupted, as_interrupted, interrupted_reason, launch_signal,
                          sigterm_interrupts, stop)
 from .launch import RANKS, SRUN_MPI_TYPES, LauncherError, Tools, launcher_argv  # noqa: F401 (re-exported)
+from .preflight import read_record
 from .progress import SegmentProgress, Target, progress_interval
 from .provenance import git_state
 
@@ -441,6 +442,8 @@ class CaseRunner:
             "nprocs": self.nprocs,
             "host": socket.gethostname(),
             "launcher": shlex.join(self.launch),
+            # the LAMMPS that ran: its path and the version of its -h banner (None: not asked)
+            "lammps": {"path": self.tools.lmp, "version": self.tools.version},
             "slurm": slurm_allocation(),
             # the code that finished the run (a resumed run may have started under an earlier one)
             "granflow_commit": git["commit"],
@@ -472,6 +475,7 @@ def run_case(case_dir: str | Path, nprocs: int = 1, launcher: str | None = None)
     (its log stays; a rerun resumes after the last complete segment), instead of ending the
     runner alone and leaving LAMMPS running; either ends the run with status ``interrupted``.
     """
+    read_record(case_dir)  # a hand-edited params.json is refused naming its key, before anything runs
     runner = CaseRunner(case_dir, nprocs, tools=Tools.default(launcher))
     with case_lock(runner.case_dir), sigterm_interrupts():
         return runner.run()

@@ -22,10 +22,13 @@ from granflow.preflight import MIN_PARTICLES_PER_RANK, PreflightError, check_ran
 
 BIN = Path(sys.executable).parent
 
-#: a stand-in for lmp: the start of a log where the runner asked for it, then a wait that only a
-#: signal ends, dying of it as LAMMPS (which installs no handlers) does
+#: a stand-in for lmp: LAMMPS's banner for ``-h`` (the runner asks which LAMMPS it is), else the start
+#: of a log where the runner asked for it, then a wait that only a signal ends, dying of it as LAMMPS
+#: (which installs no handlers) does
 FAKE_LMP = """#!{python}
 import signal, sys, time
+if sys.argv[1:] == ["-h"]:
+    sys.exit(print("Large-scale Atomic/Molecular Massively Parallel Simulator - stand-in"))
 signal.signal(signal.SIGINT, signal.SIG_DFL)
 signal.signal(signal.SIGTERM, signal.SIG_DFL)
 log = sys.argv[sys.argv.index("-log") + 1]

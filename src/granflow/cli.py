@@ -316,7 +316,7 @@ def _check_case_dir(case_dir: str) -> Path:
 
 
 def cmd_run(args) -> int:
-    from .runner import RunError, run_case
+    from .runner import RunError, StoppedByOS, run_case
 
     if args.np < 1:
         raise UsageError(f"--np {args.np} is not allowed: allowed 1 <= np")
@@ -325,6 +325,9 @@ def cmd_run(args) -> int:
     check_ranks(read_record(path), args.np)  # a hand-edited params.json is refused naming its key
     try:
         status = run_case(path, args.np)
+    except StoppedByOS as exc:  # disk full and the like: not refused, not a failure of the run's physics
+        print(f"granflow: interrupted: {exc}", file=sys.stderr)
+        return EXIT_FAILED
     except RunError as exc:
         print(f"granflow run: failed: {exc}\n  logs: {path / 'run' / 'logs'}; a rerun resumes after the last "
               f"complete segment", file=sys.stderr)

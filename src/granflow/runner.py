@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import registry
+from . import registry, restarts
 from .caselock import LOCK_NAME, case_lock
 from .interrupts import (INTERRUPTING, Interrupted, as_interrupted, interrupted_reason, launch_signal,
                          sigterm_interrupts, stop)
@@ -49,6 +49,10 @@ from .provenance import git_state
 
 class RunError(RuntimeError):
     """A LAMMPS run that failed; the message quotes the failing line and names the log."""
+
+
+class StoppedByOS(RunError):
+    """An OS error (disk full, ...) stopped a run: status ``interrupted``, a rerun resumes."""
 
 
 class UnstableRun(RunError):
@@ -302,8 +306,22 @@ class CaseRunner:
         self.running = name
         self._lammps(deck, name, variables)
         tmp.rename(out)
+        restarts.seal(out)  # its SHA-256 and size, checked before a run resumes from it
         self.running = None
         return out
+
+    def _check_resume(self) -> None:
+        """Check the restart this run would resume from (:func:`granflow.restarts.damage`); set a
+        damaged one aside and check the one before it, until a good one or none is left."""
+        while (last := restarts.latest(self.run_dir)) is not None:
+            why = restarts.damage(last, self.tools.lmp)
+            if why is None:
+                return
+            aside = restarts.set_aside(last)
+            before = restarts.latest(self.run_dir)
+            log(f"{last.name} is damaged: {why}; set aside as {aside.name}; "
+                + (f"resuming from {before.name} (segment {last.stem} runs again)" if before else
+                   "no good restart is left: the run starts from the beginning (segment init)"))
 
     def thermo(self, prefix: str, upto: int | None = None) -> pd.DataFrame:
         """Thermo rows of the *completed* segments ``prefix_001 .. prefix_upto``.
@@ -334,7 +352,6 @@ class CaseRunner:
         """
         from postproc.steady import detect_steady_state
 
-        self._guard_stale()
         rec = self.record
         proto = rec["protocol"]
         t_seg = rec["t_segment"]
@@ -343,6 +360,8 @@ class CaseRunner:
             f"dt = {rec['dt']:.3g}, {self.nprocs} MPI rank(s)")
         steady, k, n_avg, unstable = None, 0, 0, None
         try:
+            self._guard_stale()
+            self._check_resume()  # a damaged restart is set aside: the run resumes from the one before
             restart = self._segment("init.lmp", "init", None)
             n_flow = rec["n_flow_segments"]
             if rec.get("schedule") == "fixed":
@@ -385,7 +404,26 @@ class CaseRunner:
         except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, or a LAMMPS launch ended by one of them
             self._interrupted(steady, as_interrupted(exc))
             raise as_interrupted(exc) from None
+        except OSError as exc:  # a full disk, a quota, a directory made read-only: nothing lost
+            raise self._stopped_by_os(steady, exc) from None
         return self._conclude(steady, k, n_avg, unstable)
+
+    def _stopped_by_os(self, steady, exc: OSError) -> "StoppedByOS":
+        """Status ``interrupted`` naming the OS error and its path, as a signal's interruption does
+        (written if the disk takes it); the error to raise, one line."""
+        what = f"{exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else "")
+        last = restarts.latest(self.run_dir)
+        segment = f" during segment {self.running}" if self.running else ""
+        then = (f"a rerun resumes from the last restart, {last.name}" if last else
+                "no segment had finished: a rerun starts from the beginning")
+        reason = f"stopped by an OS error{segment} ({what}); fix its cause (free the disk) and rerun: {then}"
+        try:
+            self._conclude(steady, len(list(self.run_dir.glob("flow_*.restart"))),
+                           len(list(self.run_dir.glob("average_*.restart"))), None, interrupted=reason)
+            (self.run_dir / "thermo.csv").unlink()
+        except OSError as again:
+            reason += f" (run/status.json could not be written either: {again.strerror or again})"
+        return StoppedByOS(f"{self.case_dir.name}: {reason}")
 
     def _interrupted(self, steady, exc: Interrupted) -> None:
         """Status ``interrupted`` with the segments complete so far, and no ``thermo.csv``: the

@@ -22,13 +22,15 @@ from granflow.preflight import MIN_PARTICLES_PER_RANK, PreflightError, check_ran
 
 BIN = Path(sys.executable).parent
 
-#: a stand-in for lmp: LAMMPS's banner for ``-h`` (the runner asks which LAMMPS it is), else the start
-#: of a log where the runner asked for it, then a wait that only a signal ends, dying of it as LAMMPS
-#: (which installs no handlers) does
+#: a stand-in for lmp: LAMMPS's banner for ``-h`` (the runner asks which LAMMPS it is), a clean exit
+#: for the dry read of a restart, else the start of a log where the runner asked for it, then a wait
+#: that only a signal ends, dying of it as LAMMPS (which installs no handlers) does
 FAKE_LMP = """#!{python}
 import signal, sys, time
 if sys.argv[1:] == ["-h"]:
     sys.exit(print("Large-scale Atomic/Molecular Massively Parallel Simulator - stand-in"))
+if "restart_check.lmp" in sys.argv:  # the dry read of a restart before a resume: it reads
+    sys.exit(0)
 signal.signal(signal.SIGINT, signal.SIG_DFL)
 signal.signal(signal.SIGTERM, signal.SIG_DFL)
 log = sys.argv[sys.argv.index("-log") + 1]
@@ -250,3 +252,28 @@ def test_launch_signal_reads_what_launchers_report():
     assert launch_signal(128 + signal.SIGKILL, "") == signal.SIGKILL  # the runner calls it a failure
     assert launch_signal(1, "ERROR: Lost atoms") is None
     assert launch_signal(2, "") is None  # a bare 2 says nothing of a signal
+
+
+# ------------------------------------------------------------------------------ damaged restarts
+def test_a_damaged_restart_is_set_aside_and_the_run_resumes_before_it(case, fake_lmp):
+    """Issue 41, defect 5: 64 random bytes in the last restart ran on, and the case ended 'unstable:
+    lost atoms'. Now the restart's bytes differ from its seal: it is set aside, named, and the run
+    resumes from init (the stand-in runs flow_001 again)."""
+    from granflow.restarts import seal
+
+    run = _earlier_run(case)
+    seal(run / "init.restart")
+    flow = run / "flow_001.restart"
+    flow.write_bytes(b"restart of flow_001, " * 20)
+    seal(flow)
+    with open(flow, "r+b") as f:
+        f.seek(100)
+        f.write(os.urandom(64))
+    rc, err, status = _interrupt(case, fake_lmp, "flow_001", lambda pid: os.kill(pid, signal.SIGTERM))
+    assert rc == 130 and status["status"] == "interrupted", err
+    assert ("flow_001.restart is damaged: its bytes changed since it was written (SHA-256 differs from its "
+            "seal); set aside as flow_001.restart.damaged-") in err, err
+    assert "resuming from init.restart (segment flow_001 runs again)" in err, err
+    (aside,) = (p for p in run.glob("flow_001.restart.damaged-*") if not p.name.endswith(".sha256"))
+    assert aside.stat().st_size == 420 and not flow.exists() and aside.with_name(aside.name + ".sha256").exists()
+    assert status["reason"].endswith("a rerun resumes from the last restart, init.restart"), status["reason"]

@@ -25,6 +25,8 @@ import subprocess
 import time
 from pathlib import Path
 
+from .interrupts import lammps_preexec
+
 #: the seal of a restart, beside it
 SEAL_SUFFIX = ".sha256"
 #: the deck of the dry read, written into the run directory
@@ -90,7 +92,7 @@ def dry_read(restart: Path, lmp: str, timeout: float) -> str | None:
                     "read_restart ${restart_in}\n")
     proc = subprocess.Popen([lmp, "-in", deck.name, "-var", "restart_in", restart.name, "-log", "none",
                              "-nocite"], cwd=restart.parent, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, start_new_session=True)
+                            stderr=subprocess.STDOUT, preexec_fn=lammps_preexec())
     try:
         out, _ = proc.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:

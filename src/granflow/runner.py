@@ -39,8 +39,8 @@ import pandas as pd
 
 from . import registry, restarts
 from .caselock import LOCK_NAME, case_lock
-from .interrupts import (INTERRUPTING, Interrupted, as_interrupted, interrupted_reason, launch_signal,
-                         sigterm_interrupts, stop)
+from .interrupts import (INTERRUPTING, Interrupted, as_interrupted, interrupted_reason, lammps_preexec,
+                         launch_signal, sigterm_interrupts, stop)
 from .launch import RANKS, SRUN_MPI_TYPES, LauncherError, Tools, launcher_argv  # noqa: F401 (re-exported)
 from .preflight import read_record
 from .progress import SegmentProgress, Target, progress_interval
@@ -237,7 +237,10 @@ class CaseRunner:
         env = dict(os.environ, OMP_NUM_THREADS="1")
         progress = SegmentProgress(name, log_path, self._target(name), self.progress_seconds)
         with open(screen_path, "w") as screen:
-            proc = subprocess.Popen(cmd, cwd=self.run_dir, stdout=screen, stderr=subprocess.STDOUT, env=env)
+            # its own process group (a terminal's signals reach the runner, which passes them on), no
+            # terminal input (a background group reading it would stop), SIGTERM if the runner dies
+            proc = subprocess.Popen(cmd, cwd=self.run_dir, stdin=subprocess.DEVNULL, stdout=screen,
+                                    stderr=subprocess.STDOUT, env=env, preexec_fn=lammps_preexec())
             try:
                 while True:
                     try:

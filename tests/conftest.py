@@ -248,7 +248,7 @@ def assert_plotted():
     return _assert_plotted
 
 
-def _minimal_scene(scenes_dir: Path, config_dir: Path, name: str = "drum", edits: dict | None = None) -> Path:
+def _minimal_scene(scenes_dir: Path, config_dir: Path, name: str = "tmp_throwaway", edits: dict | None = None) -> Path:
     """Add the minimal scene of ``tests/data/minimal_scene`` as package ``scenes_dir/<name>`` (its
     ``__init__.py`` and the chute's deck template renamed), with the chute's schema and scene file
     renamed under ``config_dir/schema`` and ``config_dir/scenes``: the three places a new scene's
@@ -272,7 +272,7 @@ def _minimal_scene(scenes_dir: Path, config_dir: Path, name: str = "drum", edits
 
 @pytest.fixture(scope="session")
 def minimal_scene():
-    """``minimal_scene(scenes_dir, config_dir, name="drum", edits=None)``: write a scene that gives only
+    """``minimal_scene(scenes_dir, config_dir, name="tmp_throwaway", edits=None)``: write a scene that gives only
     what granflow.registry.REQUIRED asks (see :func:`_minimal_scene`); returns its package folder."""
     return _minimal_scene
 

@@ -231,7 +231,8 @@ def _new_scene_next(name: str, root: Path) -> list[str]:
     check = f"granflow check-scene {name}" + ("" if here else f" --dir {_shown(root)}")
     steps = [f"  {check:50s} the contract, the scene file, the smoke decks",
              f"  {f'granflow render {name} --rung smoke --out /tmp/{name}':50s} its decks and params.json",
-             f"  {f'pytest tests/unit/test_scene_{name}.py':50s} its tests"]
+             f"  {f'pytest tests/unit/test_scene_{name}.py':50s} its contract",
+             f"  {f'pytest tests/unit/test_scene_{name}_skeleton.py':50s} the skeleton's tests (rewrite as you change it)"]
     docs = "  docs/adding-a-scene.md says what each file holds and what to change first"
     if root.resolve() == PROJECT_ROOT.resolve():
         return ["next:", *steps, docs]
@@ -465,8 +466,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "                                   template), pipeline.py (the analysis), figures.py, captions.yaml\n"
                     "  config/scenes/NAME.yaml          the scene file, every key commented\n"
                     "  config/schema/NAME.schema.yaml   its schema: type, bounds, default, description of every key\n"
-                    "  tests/unit/test_scene_NAME.py    its tests: the contract, the bed LAMMPS builds (-skiprun),\n"
-                    "                                   the analysis on a known packing\n\n"
+                    "  tests/unit/test_scene_NAME.py    its contract: registered, every rung renders, the smoke\n"
+                    "                                   decks set up in LAMMPS (-skiprun); keep it as the scene changes\n"
+                    "  tests/unit/test_scene_NAME_skeleton.py  the skeleton's own tests (the bed LAMMPS builds,\n"
+                    "                                   the analysis on a known packing): rewrite them as you change it\n\n"
                     "The skeleton is a whole scene that gives what granflow.registry.REQUIRED asks and nothing\n"
                     "optional (like tests/data/minimal_scene): a bed of spheres rained onto a floor and settled,\n"
                     "its packing fraction against the swept friction. It renders, runs and is analysed as it is;\n"

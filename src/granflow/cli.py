@@ -304,7 +304,8 @@ def _check_case_dir(case_dir: str) -> Path:
         raise UsageError(f"{params} is not a granflow parameter record (needs scene, rung, parameters): "
                          f"render the case again")
     if record["scene"] in registry.refused():
-        raise registry.SceneError(f"{params}: scene = {record['scene']!r}: {registry.refused()[record['scene']]}")
+        name = record["scene"]
+        raise registry.refusal(name, f"{params}: scene = {name!r}: {registry.refused()[name]}")
     if record["scene"] not in registry.names():
         raise UsageError(f"{params}: scene = {record['scene']!r} is not allowed: allowed one of "
                          f"{', '.join(registry.names())}")

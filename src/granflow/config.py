@@ -229,7 +229,7 @@ def validate_scene(scene: dict, source: str = "scene", declared: registry.Scene 
     name = scene.get("scene")
     if declared is None:
         if name in registry.refused():
-            raise registry.SceneError(f"{source}: scene = {name!r}: {registry.refused()[name]}")
+            raise registry.refusal(name, f"{source}: scene = {name!r}: {registry.refused()[name]}")
         if name not in registry.names():
             raise ConfigError(f"{source}: scene = {name!r} is not allowed: allowed one of "
                               f"{', '.join(map(repr, registry.names()))}")
@@ -267,8 +267,8 @@ def validate_campaign_scenes(data: dict, root: Path, source: str = "config") -> 
     estimates = {}
     for name, sc in data.get("scenes", {}).items():
         if name in registry.refused() and sc.get("enabled", True):  # a disabled one is not needed
-            raise registry.SceneError(f"{path}: scenes.{name} is enabled, but the scene is refused: "
-                                      f"{registry.refused()[name]}")
+            raise registry.refusal(name, f"{path}: scenes.{name} is enabled, but the scene is refused: "
+                                         f"{registry.refused()[name]}")
         require(name in registry.names() or name in registry.refused(),
                 f"{path}: scenes.{name} is not allowed: allowed one of "
                 f"{', '.join(map(repr, registry.names()))} (the registered scenes)")

@@ -1,4 +1,5 @@
 """Shared fixtures: project paths and the LAMMPS executables of the venv; the property-test budget."""
+import json
 import os
 import shutil
 import sys
@@ -31,6 +32,95 @@ def pytest_configure(config):
     settings.register_profile("granflow-thorough", derandomize=False, max_examples=100 * THOROUGH_FACTOR,
                               print_blob=True, **common)
     settings.load_profile("granflow-thorough" if THOROUGH else "granflow")
+    # xdist keeps the files in our order (longest first, :func:`pytest_collection_modifyitems`), and
+    # the controller (or a plain run) times each file
+    if getattr(config.option, "dist", "no") in ("loadfile", "loadscope"):
+        config.option.loadscopereorder = False
+    if not hasattr(config, "workerinput") and not config.pluginmanager.has_plugin("granflow-file-clock"):
+        config.pluginmanager.register(FileClock(config), "granflow-file-clock")
+
+
+# ------------------------------------------------------------------ the order of files under xdist
+#: seconds each test file takes (its tests' setup, call and teardown, summed): ``make test``
+#: (``-n auto --dist loadfile``) hands files to the workers longest first, so that no long file
+#: starts last and runs alone while the other worker idles. pytest-xdist's own order (its
+#: ``--loadscope-reorder``, the default) puts the files with most tests first, which sent the
+#: integration files, few tests of minutes each, to the end. Refreshed by ``make test-durations``.
+DURATIONS = ROOT / "tests" / "durations.json"
+#: seconds taken for a file the record does not hold: an integration file as long (LAMMPS,
+#: Snakemake), a unit file as short
+DEFAULT_SECONDS = {"integration": 300.0, "unit": 10.0}
+#: where each full run leaves its measured seconds per file (pytest's cache), used before the record
+CACHE_KEY = "granflow/file_seconds"
+#: options that run part of a file: such a run's sums are not a file's duration
+PARTIAL = ("keyword", "markexpr", "lf", "failedfirst", "stepwise", "deselect")
+
+
+def file_seconds(config) -> dict:
+    """Seconds per test file: the committed record, updated by this checkout's last full runs."""
+    try:
+        recorded = json.loads(DURATIONS.read_text())["seconds"]
+    except (OSError, ValueError, KeyError):
+        recorded = {}
+    cached = config.cache.get(CACHE_KEY, {}) if getattr(config, "cache", None) else {}
+    return {**recorded, **(cached if isinstance(cached, dict) else {})}
+
+
+def expected_seconds(path: str, seconds: dict) -> float:
+    """The seconds a file (``tests/unit/test_x.py``) is expected to take."""
+    if path in seconds:
+        return float(seconds[path])
+    parts = Path(path).parts
+    return DEFAULT_SECONDS.get(parts[1] if len(parts) > 2 else "", DEFAULT_SECONDS["unit"])
+
+
+def longest_files_first(items: list, seconds: dict) -> list:
+    """``items`` grouped by file, the files by expected seconds (longest first), collection order
+    kept within a file and between files of equal time."""
+    first = {}
+    for item in items:
+        first.setdefault(item.nodeid.split("::")[0], len(first))
+    return sorted(items, key=lambda it: (-expected_seconds(it.nodeid.split("::")[0], seconds),
+                                         first[it.nodeid.split("::")[0]]))
+
+
+def pytest_collection_modifyitems(config, items):
+    """On an xdist worker (every worker sorts alike, from the same files), longest files first."""
+    if hasattr(config, "workerinput"):
+        items[:] = longest_files_first(items, file_seconds(config))
+
+
+class FileClock:
+    """Sums each file's test durations from the reports (in the xdist controller, or a plain run)
+    and, after a run of whole files, keeps them in pytest's cache; with ``GRANFLOW_RECORD_DURATIONS=1``
+    also writes :data:`DURATIONS`."""
+
+    def __init__(self, config):
+        self.config, self.seconds = config, {}
+
+    def pytest_runtest_logreport(self, report):
+        path = report.nodeid.split("::")[0]
+        self.seconds[path] = self.seconds.get(path, 0.0) + report.duration
+
+    def pytest_sessionfinish(self, session):
+        option = self.config.option
+        if not self.seconds or any(getattr(option, name, None) for name in PARTIAL):
+            return
+        measured = {path: round(s, 1) for path, s in self.seconds.items()}
+        if getattr(self.config, "cache", None):
+            self.config.cache.set(CACHE_KEY, {**self.config.cache.get(CACHE_KEY, {}), **measured})
+        if os.environ.get("GRANFLOW_RECORD_DURATIONS", "") not in ("", "0"):
+            try:
+                recorded = json.loads(DURATIONS.read_text())["seconds"]
+            except (OSError, ValueError, KeyError):
+                recorded = {}
+            merged = dict(sorted({**recorded, **measured}.items(), key=lambda kv: (-kv[1], kv[0])))
+            DURATIONS.write_text(json.dumps({"about": RECORD_ABOUT, "seconds": merged}, indent=1) + "\n")
+
+
+#: the record's own description, written with it
+RECORD_ABOUT = ("seconds per test file (setup + call + teardown of its tests, summed), measured by "
+                "`make test-durations`; tests/conftest.py hands files to the xdist workers longest first")
 
 
 def pytest_report_header(config):
@@ -248,7 +338,7 @@ def assert_plotted():
     return _assert_plotted
 
 
-def _minimal_scene(scenes_dir: Path, config_dir: Path, name: str = "drum", edits: dict | None = None) -> Path:
+def _minimal_scene(scenes_dir: Path, config_dir: Path, name: str = "tmp_throwaway", edits: dict | None = None) -> Path:
     """Add the minimal scene of ``tests/data/minimal_scene`` as package ``scenes_dir/<name>`` (its
     ``__init__.py`` and the chute's deck template renamed), with the chute's schema and scene file
     renamed under ``config_dir/schema`` and ``config_dir/scenes``: the three places a new scene's
@@ -272,7 +362,7 @@ def _minimal_scene(scenes_dir: Path, config_dir: Path, name: str = "drum", edits
 
 @pytest.fixture(scope="session")
 def minimal_scene():
-    """``minimal_scene(scenes_dir, config_dir, name="drum", edits=None)``: write a scene that gives only
+    """``minimal_scene(scenes_dir, config_dir, name="tmp_throwaway", edits=None)``: write a scene that gives only
     what granflow.registry.REQUIRED asks (see :func:`_minimal_scene`); returns its package folder."""
     return _minimal_scene
 

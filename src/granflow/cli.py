@@ -53,7 +53,7 @@ from . import one_scene, registry
 from .campaign import load_campaign
 from .config import (LIMIT_KEYS, PROJECT_ROOT, ConfigError, check_limits, check_rung, check_size, load_scene,
                      load_yaml)
-from .preflight import PreflightError, check_ranks
+from .preflight import PreflightError, check_ranks, read_record
 
 #: exit codes: a user's mistake (bad input, refused before anything runs) and a run that failed
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -231,7 +231,8 @@ def _new_scene_next(name: str, root: Path) -> list[str]:
     check = f"granflow check-scene {name}" + ("" if here else f" --dir {_shown(root)}")
     steps = [f"  {check:50s} the contract, the scene file, the smoke decks",
              f"  {f'granflow render {name} --rung smoke --out /tmp/{name}':50s} its decks and params.json",
-             f"  {f'pytest tests/unit/test_scene_{name}.py':50s} its tests"]
+             f"  {f'pytest tests/unit/test_scene_{name}.py':50s} its contract",
+             f"  {f'pytest tests/unit/test_scene_{name}_skeleton.py':50s} the skeleton's tests (rewrite as you change it)"]
     docs = "  docs/adding-a-scene.md says what each file holds and what to change first"
     if root.resolve() == PROJECT_ROOT.resolve():
         return ["next:", *steps, docs]
@@ -303,7 +304,8 @@ def _check_case_dir(case_dir: str) -> Path:
         raise UsageError(f"{params} is not a granflow parameter record (needs scene, rung, parameters): "
                          f"render the case again")
     if record["scene"] in registry.refused():
-        raise registry.SceneError(f"{params}: scene = {record['scene']!r}: {registry.refused()[record['scene']]}")
+        name = record["scene"]
+        raise registry.refusal(name, f"{params}: scene = {name!r}: {registry.refused()[name]}")
     if record["scene"] not in registry.names():
         raise UsageError(f"{params}: scene = {record['scene']!r} is not allowed: allowed one of "
                          f"{', '.join(registry.names())}")
@@ -316,15 +318,18 @@ def _check_case_dir(case_dir: str) -> Path:
 
 
 def cmd_run(args) -> int:
-    from .runner import RunError, run_case
+    from .runner import RunError, StoppedByOS, run_case
 
     if args.np < 1:
         raise UsageError(f"--np {args.np} is not allowed: allowed 1 <= np")
     path = _check_case_dir(args.case_dir)
     # a user's --np only: the workflow's ranks come from the scene and the machine
-    check_ranks(json.loads((path / "params.json").read_text()), args.np)
+    check_ranks(read_record(path), args.np)  # a hand-edited params.json is refused naming its key
     try:
         status = run_case(path, args.np)
+    except StoppedByOS as exc:  # disk full and the like: not refused, not a failure of the run's physics
+        print(f"granflow: interrupted: {exc}", file=sys.stderr)
+        return EXIT_FAILED
     except RunError as exc:
         print(f"granflow run: failed: {exc}\n  logs: {path / 'run' / 'logs'}; a rerun resumes after the last "
               f"complete segment", file=sys.stderr)
@@ -487,8 +492,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "                                   template), pipeline.py (the analysis), figures.py, captions.yaml\n"
                     "  config/scenes/NAME.yaml          the scene file, every key commented\n"
                     "  config/schema/NAME.schema.yaml   its schema: type, bounds, default, description of every key\n"
-                    "  tests/unit/test_scene_NAME.py    its tests: the contract, the bed LAMMPS builds (-skiprun),\n"
-                    "                                   the analysis on a known packing\n\n"
+                    "  tests/unit/test_scene_NAME.py    its contract: registered, every rung renders, the smoke\n"
+                    "                                   decks set up in LAMMPS (-skiprun); keep it as the scene changes\n"
+                    "  tests/unit/test_scene_NAME_skeleton.py  the skeleton's own tests (the bed LAMMPS builds,\n"
+                    "                                   the analysis on a known packing): rewrite them as you change it\n\n"
                     "The skeleton is a whole scene that gives what granflow.registry.REQUIRED asks and nothing\n"
                     "optional (like tests/data/minimal_scene): a bed of spheres rained onto a floor and settled,\n"
                     "its packing fraction against the swept friction. It renders, runs and is analysed as it is;\n"

@@ -229,7 +229,7 @@ def validate_scene(scene: dict, source: str = "scene", declared: registry.Scene 
     name = scene.get("scene")
     if declared is None:
         if name in registry.refused():
-            raise registry.SceneError(f"{source}: scene = {name!r}: {registry.refused()[name]}")
+            raise registry.refusal(name, f"{source}: scene = {name!r}: {registry.refused()[name]}")
         if name not in registry.names():
             raise ConfigError(f"{source}: scene = {name!r} is not allowed: allowed one of "
                               f"{', '.join(map(repr, registry.names()))}")
@@ -267,8 +267,8 @@ def validate_campaign_scenes(data: dict, root: Path, source: str = "config") -> 
     estimates = {}
     for name, sc in data.get("scenes", {}).items():
         if name in registry.refused() and sc.get("enabled", True):  # a disabled one is not needed
-            raise registry.SceneError(f"{path}: scenes.{name} is enabled, but the scene is refused: "
-                                      f"{registry.refused()[name]}")
+            raise registry.refusal(name, f"{path}: scenes.{name} is enabled, but the scene is refused: "
+                                         f"{registry.refused()[name]}")
         require(name in registry.names() or name in registry.refused(),
                 f"{path}: scenes.{name} is not allowed: allowed one of "
                 f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
@@ -302,7 +302,9 @@ def check_scene_sweep(name: str, scene: dict, sweep: dict, rung: str, source: st
 def check_results_dir(value: str, root: Path, source: str = "config") -> None:
     """Refuse a relative ``results_dir`` that leads out of the project root ``root`` (``..``,
     ``../x``, ``a/../../b``); an absolute path is the way to write elsewhere. Judged on the
-    path as written, so a ``results`` symlink to a scratch disk stays allowed."""
+    path as written, so a ``results`` symlink to a scratch disk stays allowed. A ``results_dir``
+    that is (or lies under) something other than a directory, e.g. a regular file, is refused too."""
+    _check_results_is_a_directory(value, root, source)
     if Path(value).is_absolute():
         return
     norm = os.path.normpath(value)
@@ -311,6 +313,20 @@ def check_results_dir(value: str, root: Path, source: str = "config") -> None:
         raise ConfigError(f"{source}: results_dir = {value!r} resolves to {where}, outside the project root "
                           f"{Path(root).absolute()}: allowed a relative path that stays inside the project; "
                           f"give an absolute path to write elsewhere")
+
+
+def _check_results_is_a_directory(value: str, root: Path, source: str) -> None:
+    """Refuse a ``results_dir`` whose nearest existing part (itself, or the parent it would be made
+    in) is not a directory: the workflow could not make its case folders there."""
+    where = Path(value) if Path(value).is_absolute() else Path(root).absolute() / value
+    for part in (where, *where.parents):
+        if part.exists():
+            if not part.is_dir():
+                kind = "a regular file" if part.is_file() else "not a directory"
+                what = "" if part == where else f" (its part {part})"
+                raise ConfigError(f"{source}: results_dir = {value!r}{what} is {kind}: allowed a directory, "
+                                  f"or a path where one can be made")
+            return
 
 
 def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str, limits: dict | None = None) -> list:

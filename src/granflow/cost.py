@@ -212,8 +212,8 @@ def cost_studies(data: dict, root: Path, source: str) -> dict:
         if not study.get("enabled", True):
             continue
         if name in registry.refused():
-            raise registry.SceneError(f"{source}: cost.scenes.{name} is enabled, but the scene is refused: "
-                                      f"{registry.refused()[name]}")
+            raise registry.refusal(name, f"{source}: cost.scenes.{name} is enabled, but the scene is refused: "
+                                         f"{registry.refused()[name]}")
         if not registry.get(name).gives("cost_study"):
             raise ConfigError(f"{source}: cost.scenes.{name} is not allowed: the {name} scene declares no cost "
                               f"study (it needs knobs, headline and observables(); granflow.registry.OPTIONAL): "

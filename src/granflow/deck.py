@@ -201,11 +201,7 @@ def scene_parameters(scene: dict, rung_name: str, case: dict | None = None,
     or ``declared``, a scene not registered), with the scene's particle snapshot view if its effect
     ``snapshots`` names the rung."""
     declared = registry.get(scene["scene"]) if declared is None else declared
-    params, context = declared.parameters(scene, rung_name, case)
-    view = declared.snapshots_at(scene, rung_name)
-    context["snapshot"] = view
-    context["record"]["snapshots"] = None if view is None else {"color": view.color, "stages": list(view.stages)}
-    return params, context
+    return declared.rendered_parameters(scene, rung_name, case)
 
 
 def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | None = None,

@@ -7,9 +7,18 @@ signal handler or because the launch it waited for reports one of those signals 
 started in the background ignores SIGINT, while MPICH's ``mpirun`` still passes it to the
 ranks and exits 2 with ``EXIT STRING: Interrupt (signal 2)``). Other deaths, e.g. SIGKILL of
 LAMMPS, stay failures.
+
+LAMMPS runs in its own process group (:func:`lammps_preexec`), so that the runner can stop all of
+it (launcher, proxies, ranks) and nothing of it outlives the runner: the kernel sends the launcher
+SIGTERM when the runner dies, however it dies (``kill -9`` included; Linux's ``PR_SET_PDEATHSIG``),
+and the launcher passes it to its ranks. A signal to the runner's process group therefore no
+longer reaches LAMMPS directly: the runner passes SIGINT and SIGTERM on, also a SIGINT it was
+started ignoring (a run started in the background), which mpirun used to receive itself.
 """
 from __future__ import annotations
 
+import ctypes
+import os
 import re
 import signal
 import subprocess
@@ -64,8 +73,33 @@ def launch_signal(returncode: int, screen: str) -> int | None:
     return returncode - 128 if 128 < returncode < 128 + signal.NSIG else None
 
 
+#: Linux's prctl option: the signal a process gets when its parent dies
+PR_SET_PDEATHSIG = 1
+
+
+def lammps_preexec():
+    """A ``preexec_fn`` for the LAMMPS launch: its own process group, and SIGTERM from the kernel
+    when the runner dies (Linux; elsewhere only the process group). Built in the runner before the
+    fork, so that the child calls only ``setpgid`` and ``prctl``."""
+    parent = os.getpid()
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        prctl = None
+
+    def preexec() -> None:
+        os.setpgid(0, 0)
+        if prctl is not None:
+            prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+        if os.getppid() != parent:  # the runner died before the request took hold
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    return preexec
+
+
 def stop(proc: subprocess.Popen, grace: float = STOP_GRACE_SECONDS) -> None:
-    """Stop a running LAMMPS launch: SIGTERM (mpirun passes it to its ranks), SIGKILL after ``grace`` s.
+    """Stop a running LAMMPS launch: SIGTERM (mpirun passes it to its ranks), SIGKILL after ``grace`` s;
+    then SIGKILL to whatever is left of its process group (the launch leads its own group).
 
     SIGKILL alone would stop the launcher but leave its ranks running and writing into
     ``run/`` (seen with the wheel's mpirun), where a rerun would meet them.
@@ -76,6 +110,10 @@ def stop(proc: subprocess.Popen, grace: float = STOP_GRACE_SECONDS) -> None:
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait()
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass  # the group is gone: every process of the launch has ended
 
 
 def _raise_interrupted(signum, frame):
@@ -84,15 +122,17 @@ def _raise_interrupted(signum, frame):
 
 @contextmanager
 def sigterm_interrupts() -> Iterator[None]:
-    """While the block runs, SIGTERM to this process raises :class:`Interrupted` as Ctrl-C raises
-    ``KeyboardInterrupt``, so that the running LAMMPS segment is stopped too and the run says it
-    was interrupted (instead of the runner ending alone and leaving LAMMPS running). Only in the
-    main thread (Python delivers signals there); SIGINT keeps its handler (ignored stays ignored).
+    """While the block runs, SIGTERM and SIGINT to this process raise :class:`Interrupted`, so that
+    the running LAMMPS segment (in its own process group, which the signal does not reach) is
+    stopped too and the run says it was interrupted (instead of the runner ending alone and
+    leaving LAMMPS running). SIGINT too when this process was started ignoring it: LAMMPS's
+    launcher used to receive that SIGINT itself. Only in the main thread (Python delivers
+    signals there).
     """
     main = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _raise_interrupted) if main else None
+    previous = {sig: signal.signal(sig, _raise_interrupted) for sig in INTERRUPTING} if main else {}
     try:
         yield
     finally:
-        if main:
-            signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

@@ -60,7 +60,7 @@ class OneScene:
 def check_only(name: str) -> None:
     """Refuse a SCENE that is not a registered scene (a refused package: with what it lacks)."""
     if name in registry.refused():
-        raise registry.SceneError(f"--only = {name!r}: the scene is refused: {registry.refused()[name]}")
+        raise registry.refusal(name, f"--only = {name!r}: the scene is refused: {registry.refused()[name]}")
     if name not in registry.names():
         raise ConfigError(f"--only = {name!r} is not allowed: allowed one of "
                           f"{', '.join(map(repr, registry.names()))} (the registered scenes, `granflow scenes`)")

@@ -1,7 +1,9 @@
 """Checks run before LAMMPS starts; each refusal names quantity, value, limit and a passing value."""
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 from .contact import SPIN_NEIGHBOURS, ContactModel
 
@@ -124,3 +126,73 @@ def neighbor_settings(diameters: list[float], skin: float, dt: float, v_max: flo
             f"size ratio d_max/d_min = {d_max / d_min:.3g} needs neighbour lists of {one} per particle, "
             f"limit 200000; a size ratio that passes: <= {((200000 / (2 * PHI_RCP)) ** (1 / 3) - 1):.3g}")
     return {"neigh_one": one, "neigh_page": max(LAMMPS_PAGE, 10 * one), "size_ratio": d_max / d_min}
+
+
+#: keys of a case's ``params.json`` the runner reads: dotted key -> (kind, required); kinds: ``pos`` a
+#: finite number > 0, ``count`` an integer >= 0, ``count1`` an integer >= 1, ``bool``, ``dict``, ``str``
+RECORD_KEYS = {
+    "scene": ("str", False), "dt": ("pos", True), "t_segment": ("pos", True),
+    "n_flow_segments": ("count", True), "n_average_segments": ("count", True),
+    "protocol": ("dict", True), "guards": ("dict", True), "parameters": ("dict", True),
+    "guards.report_overlap": ("pos", True), "protocol.average_unsteady": ("bool", False),
+    "protocol.steady_window": ("pos", False), "protocol.steady_rel_tol": ("pos", False),
+    "protocol.steady_fluct_tol": ("pos", False), "parameters.n_particles": ("count1", False),
+    "parameters.n_segment": ("count1", False), "n_particles_estimate": ("pos", False),
+}
+#: the steady-state keys a record without a fixed schedule must have (the runner judges steadiness)
+STEADY_KEYS = ("protocol.steady_window", "protocol.steady_rel_tol", "protocol.steady_fluct_tol")
+_KINDS = {"pos": "a finite number > 0", "count": "a whole number >= 0", "count1": "a whole number >= 1",
+          "bool": "true or false", "dict": "a mapping", "str": "a string"}
+
+
+def _fits(kind: str, value) -> bool:
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if kind == "pos":
+        return number and math.isfinite(value) and value > 0
+    if kind in ("count", "count1"):
+        return number and float(value).is_integer() and value >= (kind == "count1")
+    return isinstance(value, {"bool": bool, "dict": dict, "str": str}[kind])
+
+
+def check_record(record, source: str = "params.json") -> dict:
+    """Refuse a case record (``params.json``) the runner cannot run, naming the key that is wrong.
+
+    ``granflow render`` writes the record; a hand edit that drops a key the runner reads, or gives
+    it a value of the wrong kind (:data:`RECORD_KEYS`), raises :class:`PreflightError` (exit 2)
+    before anything runs. Returns the record.
+    """
+    again = "; params.json is written by granflow render (or the workflow's render rule): render the case again"
+    if not isinstance(record, dict):
+        raise PreflightError(f"{source} is not a JSON object but {type(record).__name__}{again}")
+    needed = {k for k, (_, required) in RECORD_KEYS.items() if required}
+    if record.get("schedule") != "fixed":
+        needed |= set(STEADY_KEYS)
+    schedule = record.get("schedule")
+    if schedule is not None and schedule != "fixed":
+        raise PreflightError(f"{source}: key 'schedule' is {schedule!r}, allowed 'fixed' or absent{again}")
+    for key, (kind, _) in RECORD_KEYS.items():
+        head, _, tail = key.partition(".")
+        holder = record if not tail else record.get(head)
+        name = tail or head
+        if not isinstance(holder, dict) or name not in holder:
+            if key in needed:
+                raise PreflightError(f"{source}: key {key!r} is missing; it must be {_KINDS[kind]}{again}")
+            continue
+        if not _fits(kind, holder[name]):
+            raise PreflightError(f"{source}: key {key!r} is {holder[name]!r}, it must be {_KINDS[kind]}{again}")
+    if schedule is None and record["n_flow_segments"] < 1:
+        raise PreflightError(f"{source}: key 'n_flow_segments' is {record['n_flow_segments']!r}, it must be a "
+                             f"whole number >= 1 (the runner judges steadiness after each flow segment){again}")
+    return record
+
+
+def read_record(case_dir) -> dict:
+    """A case directory's ``params.json``, read and checked by :func:`check_record`."""
+    path = Path(case_dir) / "params.json"
+    try:
+        record = json.loads(path.read_text())
+    except UnicodeDecodeError as exc:
+        raise PreflightError(f"{path} is not text: {exc.reason}") from None
+    except ValueError as exc:
+        raise PreflightError(f"{path} is not valid JSON ({exc}): render the case again") from None
+    return check_record(record, str(path))

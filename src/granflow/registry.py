@@ -28,7 +28,7 @@ import pkgutil
 import sys
 import types
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
@@ -102,13 +102,15 @@ class PackageCheck:
     """One scene package checked against the contract: its ``SCENE`` (None when the package does not
     import or has no usable one) and every problem found, one phrase each (:func:`check_package`).
 
-    ``import_error`` says why the package does not import (then nothing else was checked);
+    ``import_error`` says why the package does not import (then nothing else was checked), and
+    ``exception`` is that error itself, with its traceback (``--debug`` shows it, file and line);
     ``lacks`` lists what it lacks of :data:`REQUIRED` (:func:`missing`), all of it, not the first.
     """
 
     scene: Scene | None
     lacks: tuple[str, ...] = ()
     import_error: str = ""
+    exception: BaseException | None = field(default=None, compare=False, repr=False)
 
     @property
     def ok(self) -> bool:
@@ -128,12 +130,14 @@ def check_package(module: str, package: str, config_dir: Path | None = None) -> 
     try:
         imported = importlib.import_module(module)
     except Exception as exc:  # noqa: BLE001 - any error of a scene's code refuses that scene only
-        return PackageCheck(None, import_error=f"its package does not import ({type(exc).__name__}: {exc})")
+        return PackageCheck(None, import_error=f"its package does not import ({type(exc).__name__}: {exc})",
+                            exception=exc)
     scene = getattr(imported, "SCENE", None)
     try:
         lacks = missing(scene, package, config_dir)
     except Exception as exc:  # noqa: BLE001 - e.g. a member that is not what its name says
-        lacks = [f"a SCENE that can be checked ({type(exc).__name__}: {exc})"]
+        return PackageCheck(scene if isinstance(scene, Scene) else None,
+                            (f"a SCENE that can be checked ({type(exc).__name__}: {exc})",), exception=exc)
     return PackageCheck(scene if isinstance(scene, Scene) else None, tuple(lacks))
 
 
@@ -166,17 +170,19 @@ def package_at(path: str | Path):
 
 @dataclass(frozen=True)
 class Found:
-    """The scene packages of one discovery: the usable ones by name, the refused ones with why."""
+    """The scene packages of one discovery: the usable ones by name, the refused ones with why, and
+    the error that refused a package whose code failed (by name)."""
 
     scenes: dict
     refused: dict
+    errors: dict = field(default_factory=dict)
 
 
 def discover(package: str = SCENES_PACKAGE, config_dir: Path | None = None) -> Found:
     """Import every subpackage of ``package`` and check its ``SCENE`` (:func:`check_package`). A package
     that does not import, has no ``SCENE`` or lacks a required part is refused with the reason;
     the others are found, by name (sorted)."""
-    scenes, refused = {}, {}
+    scenes, refused, errors = {}, {}, {}
     for info in sorted(pkgutil.iter_modules(importlib.import_module(package).__path__), key=lambda m: m.name):
         if not info.ispkg:
             continue
@@ -185,7 +191,9 @@ def discover(package: str = SCENES_PACKAGE, config_dir: Path | None = None) -> F
             scenes[info.name] = checked.scene
         else:
             refused[info.name] = checked.refusal
-    return Found(scenes, refused)
+            if checked.exception is not None:
+                errors[info.name] = checked.exception
+    return Found(scenes, refused, errors)
 
 
 # ------------------------------------------------------------------------- lookup
@@ -209,13 +217,22 @@ def refused() -> dict[str, str]:
     return dict(_found().refused)
 
 
+def refusal(name: str, text: str) -> SceneError:
+    """A :class:`SceneError` saying ``text`` of the refused scene ``name``, caused by the error of its
+    package's own code, if one refused it: a traceback (``--debug``) then shows that error first,
+    with its file and line."""
+    error = SceneError(text)
+    error.__cause__ = _found().errors.get(name)
+    return error
+
+
 def get(name: str) -> Scene:
     """The scene called ``name``; :class:`SceneError` naming what a refused one lacks, ``KeyError``
     naming the registered ones for an unknown name."""
     found = _found()
     if name in found.refused:
-        raise SceneError(f"scene {name!r} is refused: {found.refused[name]} (granflow.registry.REQUIRED lists "
-                         f"what a scene must give)")
+        raise refusal(name, f"scene {name!r} is refused: {found.refused[name]} (granflow.registry.REQUIRED lists "
+                            f"what a scene must give)")
     try:
         return found.scenes[name]
     except KeyError:

@@ -336,7 +336,10 @@ def case_state(case_dir: str | Path, record: dict | None = None) -> dict:
     on_disk = case_dir / "params.json"
     current = None
     if record is not None and on_disk.exists():
-        current = on_disk.read_text() == json.dumps(record, indent=2, sort_keys=True) + "\n"
+        try:  # the same record as render writes (JSON turns tuples into lists)
+            current = json.loads(on_disk.read_text()) == json.loads(json.dumps(record))
+        except (OSError, ValueError):
+            current = False
     status_path = case_dir / "run" / "status.json"
     status = ""
     if status_path.exists():
@@ -381,7 +384,8 @@ def plan_campaign(campaign: dict, results: str | Path, calibration: Calibration 
         scene_rows = []
         for point in scene.sweep_points(sc["scene"], sc.get("sweep") or {}, rung):
             rel = scene.case_dir(point)
-            _, context = scene.parameters(sc["scene"], rung, scene.case_from_dir(rel))
+            # the record exactly as render writes it (with what render adds, e.g. snapshots)
+            _, context = scene.rendered_parameters(sc["scene"], rung, scene.case_from_dir(rel))
             record = context["record"]
             work = scene.workload(record)
             est = estimate(work, calibration=cal, max_ranks=max_ranks)

@@ -27,7 +27,6 @@ import os
 import re
 import resource
 import shlex
-import shutil
 import socket
 import subprocess
 import sys
@@ -38,16 +37,22 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import registry
+from . import registry, restarts
 from .caselock import LOCK_NAME, case_lock
-from .interrupts import (INTERRUPTING, Interrupted, as_interrupted, interrupted_reason, launch_signal,
-                         sigterm_interrupts, stop)
+from .interrupts import (INTERRUPTING, Interrupted, as_interrupted, interrupted_reason, lammps_preexec,
+                         launch_signal, sigterm_interrupts, stop)
+from .launch import RANKS, SRUN_MPI_TYPES, LauncherError, Tools, launcher_argv  # noqa: F401 (re-exported)
+from .preflight import read_record
 from .progress import SegmentProgress, Target, progress_interval
 from .provenance import git_state
 
 
 class RunError(RuntimeError):
     """A LAMMPS run that failed; the message quotes the failing line and names the log."""
+
+
+class StoppedByOS(RunError):
+    """An OS error (disk full, ...) stopped a run: status ``interrupted``, a rerun resumes."""
 
 
 class UnstableRun(RunError):
@@ -73,129 +78,6 @@ LOST_ATOMS = ("lost atoms: a particle left the box, through a wall it was pushed
 def dangerous_builds(log_text: str) -> int:
     """Sum of LAMMPS's ``Dangerous builds = N`` lines in a log."""
     return sum(int(l.split("=")[1]) for l in log_text.splitlines() if l.startswith("Dangerous builds ="))
-
-
-class LauncherError(ValueError):
-    """An MPI launcher that is not one of the forms :func:`launcher_argv` accepts."""
-
-
-#: ``srun --mpi=`` plugin types a launcher may name (Slurm's PMI flavours)
-SRUN_MPI_TYPES = ("pmi2", "pmix", "pmix_v2", "pmix_v3", "pmix_v4", "pmix_v5", "cray_shasta", "none")
-#: program names of the mpirun-like launchers (Debian's alternatives: mpirun.mpich, mpiexec.hydra, ...)
-_MPIRUN_NAMES = ("mpirun", "mpiexec")
-RANKS = "{ranks}"
-
-
-def launcher_argv(spec: str, ranks: int, bindir: Path | None = None) -> list[str]:
-    """The argv that starts ``ranks`` MPI ranks, from a launcher ``spec``; refuses anything else.
-
-    Accepted forms (the rank count always comes from the case, never from the text):
-
-    - ``mpirun`` or ``mpiexec``, bare or as a path (also ``mpirun.mpich``, ``mpiexec.hydra``, ...),
-      optionally followed by ``-np {ranks}`` or ``-n {ranks}``: runs ``<prog> -np N``;
-    - ``srun``, bare or as a path, optionally with ``--mpi=TYPE`` (TYPE in :data:`SRUN_MPI_TYPES`)
-      and ``-n {ranks}`` / ``--ntasks={ranks}``: runs ``srun [--mpi=TYPE] -n N`` (a job step of
-      the allocation it runs in).
-
-    A bare ``mpirun``/``mpiexec`` is the one beside this Python (the venv's) when it exists,
-    a bare ``srun`` the one on PATH. The text is split like a shell would split it but never
-    run by a shell; any other program, option or word raises :class:`LauncherError` naming it.
-    """
-    if ranks < 1:
-        raise LauncherError(f"MPI launcher {spec!r}: {ranks} ranks requested, at least 1 needed")
-    try:
-        # a path to an existing program is one word even with spaces in it
-        words = [spec] if spec and Path(spec).is_file() else shlex.split(spec or "")
-    except ValueError as exc:
-        raise LauncherError(f"MPI launcher {spec!r} cannot be split into words: {exc}") from None
-    if not words:
-        raise LauncherError(f"MPI launcher {spec!r} is empty: use e.g. 'mpirun' or 'srun --mpi=pmi2'")
-    prog, rest = words[0], words[1:]
-    name = Path(prog).name
-    bindir = bindir or Path(sys.executable).parent
-
-    def refuse(why: str) -> LauncherError:
-        return LauncherError(
-            f"MPI launcher {spec!r} refused: {why}. Accepted: 'mpirun' or 'mpiexec' (a path, optionally "
-            f"'-np {{ranks}}'), or 'srun' optionally with '--mpi=TYPE' (TYPE one of {', '.join(SRUN_MPI_TYPES)}) "
-            f"and '-n {{ranks}}'")
-
-    def rank_flag(words: list[str], flags: tuple[str, ...]) -> list[str]:
-        """Remove one optional ``FLAG {ranks}`` (or ``--ntasks={ranks}``) from the words."""
-        out, i = [], 0
-        while i < len(words):
-            w = words[i]
-            if w in flags:
-                if i + 1 >= len(words) or words[i + 1] != RANKS:
-                    got = words[i + 1] if i + 1 < len(words) else "nothing"
-                    raise refuse(f"{w} must be followed by {RANKS} (the case decides the ranks), not {got!r}")
-                i += 2
-                continue
-            if w.startswith("--ntasks="):
-                if w != "--ntasks=" + RANKS:
-                    raise refuse(f"{w!r}: the rank count must be {RANKS}")
-                i += 1
-                continue
-            out.append(w)
-            i += 1
-        return out
-
-    if re.fullmatch(r"(mpirun|mpiexec)([._-][A-Za-z0-9_.-]+)?", name):
-        left = rank_flag(rest, ("-np", "-n"))
-        if left:
-            raise refuse(f"unexpected {' '.join(left)!r} after {prog}")
-        if "/" not in prog and name in _MPIRUN_NAMES and (bindir / name).exists():
-            prog = str(bindir / name)
-        elif "/" not in prog:
-            prog = shutil.which(prog) or prog
-        return [prog, "-np", str(ranks)]
-    if name == "srun":
-        left = rank_flag(rest, ("-n", "--ntasks"))
-        mpi = [w for w in left if w.startswith("--mpi=")]
-        other = [w for w in left if not w.startswith("--mpi=")]
-        if other:
-            raise refuse(f"unexpected {' '.join(other)!r} after srun")
-        if len(mpi) > 1 or (mpi and mpi[0].split("=", 1)[1] not in SRUN_MPI_TYPES):
-            raise refuse(f"{' '.join(mpi)!r} is not one --mpi=TYPE with a known TYPE")
-        if "/" not in prog:
-            prog = shutil.which(prog) or prog
-        return [prog, *mpi, "-n", str(ranks)]
-    raise refuse(f"{prog!r} is not mpirun, mpiexec or srun")
-
-
-@dataclass
-class Tools:
-    """The executables of a run: LAMMPS and the MPI launcher (the venv's by default).
-
-    ``mpirun`` is the default launcher: ``GRANFLOW_MPIRUN`` (a path to mpirun, or any form
-    :func:`launcher_argv` accepts), else the venv's ``mpirun``. ``launcher``, when given (the
-    ``mpi`` resource of a workflow profile, see ``profiles/slurm``), replaces it: e.g.
-    ``srun --mpi=pmi2`` inside a SLURM allocation. Either is checked when the runner is built.
-    """
-
-    lmp: str
-    mpirun: str
-    launcher: str | None = None
-
-    @classmethod
-    def default(cls, launcher: str | None = None) -> "Tools":
-        bindir = Path(sys.executable).parent
-        lmp = os.environ.get("GRANFLOW_LMP") or str(bindir / "lmp")
-        mpirun = os.environ.get("GRANFLOW_MPIRUN") or str(bindir / "mpirun")
-        if not Path(lmp).exists():
-            lmp = shutil.which("lmp") or lmp
-        if "/" in mpirun and not Path(mpirun).exists():
-            mpirun = shutil.which("mpirun") or mpirun
-        return cls(lmp=lmp, mpirun=mpirun, launcher=launcher or None)
-
-    @property
-    def spec(self) -> str:
-        """The launcher in force: the chosen one, else the default mpirun."""
-        return self.launcher or self.mpirun
-
-    def launch(self, ranks: int) -> list[str]:
-        """argv prefix that starts ``ranks`` ranks (raises :class:`LauncherError` for a bad launcher)."""
-        return launcher_argv(self.spec, ranks)
 
 
 def log(msg: str) -> None:
@@ -355,7 +237,10 @@ class CaseRunner:
         env = dict(os.environ, OMP_NUM_THREADS="1")
         progress = SegmentProgress(name, log_path, self._target(name), self.progress_seconds)
         with open(screen_path, "w") as screen:
-            proc = subprocess.Popen(cmd, cwd=self.run_dir, stdout=screen, stderr=subprocess.STDOUT, env=env)
+            # its own process group (a terminal's signals reach the runner, which passes them on), no
+            # terminal input (a background group reading it would stop), SIGTERM if the runner dies
+            proc = subprocess.Popen(cmd, cwd=self.run_dir, stdin=subprocess.DEVNULL, stdout=screen,
+                                    stderr=subprocess.STDOUT, env=env, preexec_fn=lammps_preexec())
             try:
                 while True:
                     try:
@@ -424,8 +309,22 @@ class CaseRunner:
         self.running = name
         self._lammps(deck, name, variables)
         tmp.rename(out)
+        restarts.seal(out)  # its SHA-256 and size, checked before a run resumes from it
         self.running = None
         return out
+
+    def _check_resume(self) -> None:
+        """Check the restart this run would resume from (:func:`granflow.restarts.damage`); set a
+        damaged one aside and check the one before it, until a good one or none is left."""
+        while (last := restarts.latest(self.run_dir)) is not None:
+            why = restarts.damage(last, self.tools.lmp)
+            if why is None:
+                return
+            aside = restarts.set_aside(last)
+            before = restarts.latest(self.run_dir)
+            log(f"{last.name} is damaged: {why}; set aside as {aside.name}; "
+                + (f"resuming from {before.name} (segment {last.stem} runs again)" if before else
+                   "no good restart is left: the run starts from the beginning (segment init)"))
 
     def thermo(self, prefix: str, upto: int | None = None) -> pd.DataFrame:
         """Thermo rows of the *completed* segments ``prefix_001 .. prefix_upto``.
@@ -456,7 +355,6 @@ class CaseRunner:
         """
         from postproc.steady import detect_steady_state
 
-        self._guard_stale()
         rec = self.record
         proto = rec["protocol"]
         t_seg = rec["t_segment"]
@@ -465,6 +363,8 @@ class CaseRunner:
             f"dt = {rec['dt']:.3g}, {self.nprocs} MPI rank(s)")
         steady, k, n_avg, unstable = None, 0, 0, None
         try:
+            self._guard_stale()
+            self._check_resume()  # a damaged restart is set aside: the run resumes from the one before
             restart = self._segment("init.lmp", "init", None)
             n_flow = rec["n_flow_segments"]
             if rec.get("schedule") == "fixed":
@@ -507,7 +407,26 @@ class CaseRunner:
         except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, or a LAMMPS launch ended by one of them
             self._interrupted(steady, as_interrupted(exc))
             raise as_interrupted(exc) from None
+        except OSError as exc:  # a full disk, a quota, a directory made read-only: nothing lost
+            raise self._stopped_by_os(steady, exc) from None
         return self._conclude(steady, k, n_avg, unstable)
+
+    def _stopped_by_os(self, steady, exc: OSError) -> "StoppedByOS":
+        """Status ``interrupted`` naming the OS error and its path, as a signal's interruption does
+        (written if the disk takes it); the error to raise, one line."""
+        what = f"{exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else "")
+        last = restarts.latest(self.run_dir)
+        segment = f" during segment {self.running}" if self.running else ""
+        then = (f"a rerun resumes from the last restart, {last.name}" if last else
+                "no segment had finished: a rerun starts from the beginning")
+        reason = f"stopped by an OS error{segment} ({what}); fix its cause (free the disk) and rerun: {then}"
+        try:
+            self._conclude(steady, len(list(self.run_dir.glob("flow_*.restart"))),
+                           len(list(self.run_dir.glob("average_*.restart"))), None, interrupted=reason)
+            (self.run_dir / "thermo.csv").unlink()
+        except OSError as again:
+            reason += f" (run/status.json could not be written either: {again.strerror or again})"
+        return StoppedByOS(f"{self.case_dir.name}: {reason}")
 
     def _interrupted(self, steady, exc: Interrupted) -> None:
         """Status ``interrupted`` with the segments complete so far, and no ``thermo.csv``: the
@@ -564,6 +483,8 @@ class CaseRunner:
             "nprocs": self.nprocs,
             "host": socket.gethostname(),
             "launcher": shlex.join(self.launch),
+            # the LAMMPS that ran: its path and the version of its -h banner (None: not asked)
+            "lammps": {"path": self.tools.lmp, "version": self.tools.version},
             "slurm": slurm_allocation(),
             # the code that finished the run (a resumed run may have started under an earlier one)
             "granflow_commit": git["commit"],
@@ -595,6 +516,7 @@ def run_case(case_dir: str | Path, nprocs: int = 1, launcher: str | None = None)
     (its log stays; a rerun resumes after the last complete segment), instead of ending the
     runner alone and leaving LAMMPS running; either ends the run with status ``interrupted``.
     """
+    read_record(case_dir)  # a hand-edited params.json is refused naming its key, before anything runs
     runner = CaseRunner(case_dir, nprocs, tools=Tools.default(launcher))
     with case_lock(runner.case_dir), sigterm_interrupts():
         return runner.run()

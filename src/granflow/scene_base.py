@@ -217,6 +217,34 @@ class Scene(StudyHooks, CaseNames):
         return dict(scene["case"], **(case or {}))
 
     # -- decks --------------------------------------------------------------------------
+    def rendered_parameters(self, scene: dict, rung: str, case: dict | None = None):
+        """``(params, context)`` as ``granflow render`` writes them: :meth:`parameters`, and the
+        particle snapshot view at ``rung`` (:meth:`snapshots_at`) in the context (``snapshot``)
+        and in the record (``snapshots``: its colour and stages, or None). ``granflow plan``
+        compares a case's ``params.json`` with this record.
+
+        Parameters
+        ----------
+        scene : dict
+            The scene file's contents.
+        rung : str
+            Name of the rung.
+        case : dict, optional
+            The sweep point, ``{case key: value}``; None for the default case.
+
+        Returns
+        -------
+        params : list of granflow.deck.Param
+            The deck's numbers.
+        context : dict
+            The template context; its ``record`` is the case's ``params.json``.
+        """
+        params, context = self.parameters(scene, rung, case)
+        view = self.snapshots_at(scene, rung)
+        context["snapshot"] = view
+        context["record"]["snapshots"] = None if view is None else {"color": view.color, "stages": list(view.stages)}
+        return params, context
+
     def parameters(self, scene: dict, rung: str, case: dict | None = None):
         """``(params, context)``: the deck numbers and the template context (with ``record``).
 

@@ -22,10 +22,15 @@ from granflow.preflight import MIN_PARTICLES_PER_RANK, PreflightError, check_ran
 
 BIN = Path(sys.executable).parent
 
-#: a stand-in for lmp: the start of a log where the runner asked for it, then a wait that only a
-#: signal ends, dying of it as LAMMPS (which installs no handlers) does
+#: a stand-in for lmp: LAMMPS's banner for ``-h`` (the runner asks which LAMMPS it is), a clean exit
+#: for the dry read of a restart, else the start of a log where the runner asked for it, then a wait
+#: that only a signal ends, dying of it as LAMMPS (which installs no handlers) does
 FAKE_LMP = """#!{python}
 import signal, sys, time
+if sys.argv[1:] == ["-h"]:
+    sys.exit(print("Large-scale Atomic/Molecular Massively Parallel Simulator - stand-in"))
+if "restart_check.lmp" in sys.argv:  # the dry read of a restart before a resume: it reads
+    sys.exit(0)
 signal.signal(signal.SIGINT, signal.SIG_DFL)
 signal.signal(signal.SIGTERM, signal.SIG_DFL)
 log = sys.argv[sys.argv.index("-log") + 1]
@@ -200,8 +205,10 @@ def _interrupt(case: Path, fake_lmp: Path, segment: str, send, ignore_sigint: bo
 
 def test_sigint_to_a_background_run_says_interrupted(case, fake_lmp):
     """The issue's case: a run started in the background ignores SIGINT; Ctrl-C's SIGINT to the
-    process group reaches mpirun, which ends its ranks and exits 2 ('LAMMPS exited with status 2 and
-    no ERROR line' before). Now: status interrupted, the log kept, a rerun resumes from init."""
+    process group reached mpirun, which ended its ranks and exited 2 ('LAMMPS exited with status 2 and
+    no ERROR line' before issue 31). Now: status interrupted, the log kept, a rerun resumes from init.
+    Since issue 41 LAMMPS runs in its own process group, which the SIGINT does not reach: the runner
+    takes it (though started ignoring it) and stops LAMMPS."""
     run = _earlier_run(case)
     restart = (run / "init.restart").read_bytes()
     rc, err, status = _interrupt(case, fake_lmp, "flow_001", lambda pid: os.killpg(pid, signal.SIGINT),
@@ -210,7 +217,7 @@ def test_sigint_to_a_background_run_says_interrupted(case, fake_lmp):
     assert "granflow: interrupted" in err and "exited with status" not in err, err
     assert status["status"] == "interrupted", status
     reason = status["reason"]
-    assert reason.startswith("interrupted by SIGINT (received by LAMMPS) during segment flow_001"), reason
+    assert reason.startswith("interrupted by SIGINT (received by the runner) during segment flow_001"), reason
     assert f"its log is kept: {run / 'logs' / 'flow_001.log'}" in reason, reason
     assert reason.endswith("a rerun resumes from the last restart, init.restart"), reason
     assert (run / "logs" / "flow_001.log").read_text().startswith("LAMMPS (stand-in)"), "the log is kept"
@@ -247,3 +254,95 @@ def test_launch_signal_reads_what_launchers_report():
     assert launch_signal(128 + signal.SIGKILL, "") == signal.SIGKILL  # the runner calls it a failure
     assert launch_signal(1, "ERROR: Lost atoms") is None
     assert launch_signal(2, "") is None  # a bare 2 says nothing of a signal
+
+
+def test_kill_9_of_the_runner_takes_its_lammps_with_it(case, fake_lmp):
+    """Issue 41, defect 8: kill -9 of the runner left mpirun and lmp running as orphans, the lock
+    released, and a rerun started a second LAMMPS on the case. Now LAMMPS leads its own process
+    group (a signal to the runner's group does not reach it) and its launcher gets SIGTERM from the
+    kernel when the runner dies."""
+    env = dict(os.environ, GRANFLOW_LMP=str(fake_lmp), GRANFLOW_PROGRESS_SECONDS="0")
+    proc = subprocess.Popen([str(BIN / "granflow"), "run", str(case)], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+    log = case / "run" / "logs" / "init.log"
+    try:
+        deadline = time.time() + 60
+        while not log.exists() and proc.poll() is None and time.time() < deadline:
+            time.sleep(0.05)
+        assert log.exists(), "the stand-in never ran init"
+        lammps = _lammps_of(case)
+        assert lammps and all(os.getpgid(pid) != proc.pid for pid in lammps), "LAMMPS leads its own group"
+    finally:
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+    deadline = time.time() + 20  # mpirun passes SIGTERM on to its ranks
+    while _lammps_of(case) and time.time() < deadline:
+        time.sleep(0.1)
+    left = _lammps_of(case)
+    for pid in left:
+        os.kill(pid, signal.SIGKILL)
+    assert not left, "mpirun or LAMMPS outlived the runner killed with SIGKILL"
+
+
+def test_a_job_refused_by_the_lock_writes_nothing_of_the_running_case(case, fake_lmp, capsys, monkeypatch):
+    """Issue 41, defect 7: a second Snakemake with --nolock deletes the running job's log (as Snakemake
+    does before any job); its own simulate job was refused with a traceback written there, and the
+    first, successful job's simulate.log was lost. Now the refused job writes no file and says so in
+    one line on the terminal; the running job puts its log back when it ends."""
+    from granflow.simulate_job import simulate
+
+    log = case / "logs" / "simulate.log"
+    env = dict(os.environ, GRANFLOW_LMP=str(fake_lmp), GRANFLOW_PROGRESS_SECONDS="0")
+    first = subprocess.Popen(
+        [sys.executable, "-c", "import sys\nfrom granflow.simulate_job import simulate\n"
+         "sys.exit(simulate(sys.argv[1], sys.argv[2], 1))", str(log), str(case / "params.json")],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        deadline = time.time() + 60
+        while not (case / "run" / "logs" / "init.log").exists() and first.poll() is None and time.time() < deadline:
+            time.sleep(0.05)
+        assert (case / "run" / "logs" / "init.log").exists(), first.stderr.read() if first.poll() is not None else ""
+        assert "particles" in log.read_text()
+        log.unlink()  # what the second Snakemake does before its job starts
+        before = _files(case / "run")
+        monkeypatch.setenv("GRANFLOW_LMP", str(fake_lmp))
+        assert simulate(log, case / "params.json", 1) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("granflow: refused: ") and err.count("\n") == 1, err
+        assert f"is being run by process {first.pid} on" in err and "Traceback" not in err, err
+        assert not log.exists(), "the refused job wrote the running case's log"
+        assert _files(case / "run") == before, "the refused job changed files under run/"
+        os.kill(first.pid, signal.SIGTERM)  # the first job ends (interrupted here), and puts its log back
+        assert first.wait(timeout=60) == 130, first.stderr.read()
+    finally:
+        if first.poll() is None:
+            os.killpg(first.pid, signal.SIGKILL)
+            first.wait()
+    text = log.read_text()
+    assert "particles" in text and text.rstrip().endswith("a rerun resumes after the last complete segment"), text
+    assert "granflow: refused" not in text and "Traceback" not in text
+
+
+# ------------------------------------------------------------------------------ damaged restarts
+def test_a_damaged_restart_is_set_aside_and_the_run_resumes_before_it(case, fake_lmp):
+    """Issue 41, defect 5: 64 random bytes in the last restart ran on, and the case ended 'unstable:
+    lost atoms'. Now the restart's bytes differ from its seal: it is set aside, named, and the run
+    resumes from init (the stand-in runs flow_001 again)."""
+    from granflow.restarts import seal
+
+    run = _earlier_run(case)
+    seal(run / "init.restart")
+    flow = run / "flow_001.restart"
+    flow.write_bytes(b"restart of flow_001, " * 20)
+    seal(flow)
+    with open(flow, "r+b") as f:
+        f.seek(100)
+        f.write(os.urandom(64))
+    rc, err, status = _interrupt(case, fake_lmp, "flow_001", lambda pid: os.kill(pid, signal.SIGTERM))
+    assert rc == 130 and status["status"] == "interrupted", err
+    assert ("flow_001.restart is damaged: its bytes changed since it was written (SHA-256 differs from its "
+            "seal); set aside as flow_001.restart.damaged-") in err, err
+    assert "resuming from init.restart (segment flow_001 runs again)" in err, err
+    (aside,) = (p for p in run.glob("flow_001.restart.damaged-*") if not p.name.endswith(".sha256"))
+    assert aside.stat().st_size == 420 and not flow.exists() and aside.with_name(aside.name + ".sha256").exists()
+    assert status["reason"].endswith("a rerun resumes from the last restart, init.restart"), status["reason"]

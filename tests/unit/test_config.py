@@ -73,3 +73,14 @@ def test_free_text_cannot_reach_a_deck(root):
 def test_console_script_help():
     out = subprocess.run([sys.executable, "-m", "granflow.cli", "--help"], capture_output=True, text=True)
     assert out.returncode == 0 and "check-config" in out.stdout and "render" in out.stdout
+
+
+def test_a_campaign_entry_without_enabled_is_enabled(root, tmp_path, scenes_off, capsys, monkeypatch):
+    """Issue 41: a campaign entry had to say `enabled: true` although the schema's default is true."""
+    cfg = tmp_path / "campaign.yaml"
+    cfg.write_text("rung: smoke\nscenes:\n  chute:\n    scene_file: config/scenes/chute.yaml\n"
+                   + scenes_off(keep=("chute",)))
+    loaded = load_campaign(cfg, root=root)
+    assert loaded["scenes"]["chute"].get("enabled", True) is True and "scene" in loaded["scenes"]["chute"]
+    monkeypatch.chdir(root)
+    assert main(["check-config", str(cfg)]) == 0, capsys.readouterr().err

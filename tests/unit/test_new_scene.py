@@ -4,7 +4,9 @@ and its smoke decks set up in LAMMPS with the bed its scene file asks for; a bad
 not one, or a file already there is refused in one line with nothing written; check-scene names every
 required part a package lacks (the registry's own check) and notes the optional ones."""
 import importlib
+import os
 import re
+import shutil
 from pathlib import Path
 
 import pytest
@@ -231,3 +233,37 @@ def test_check_scene_of_shipped_scenes_and_of_the_tests_minimal_scene(monkeypatc
 def test_check_scene_of_a_name_with_no_package_is_refused(project, capsys):
     assert main(["check-scene", "nothing", "--dir", str(project)]) == EXIT_BAD_INPUT
     assert "NAME = 'nothing' is not allowed: " in capsys.readouterr().err
+
+
+def test_the_new_scenes_tests_hold_the_contract_apart_from_the_skeleton(tmp_path, project_copy):
+    """Issue 41: the test new-scene wrote imported the skeleton's helpers at its top, so the first edit
+    of the scene broke the collection of the whole suite. Now test_scene_<name>.py checks the contract
+    alone and test_scene_<name>_skeleton.py the skeleton: with the skeleton's analysis renamed, the
+    contract's tests pass, the suite still collects, and the skeleton's test says what to rewrite."""
+    import subprocess
+    import sys
+
+    copy = project_copy(tmp_path / "project")
+    (copy / "tests").mkdir()
+    shutil.copyfile(ROOT / "tests" / "conftest.py", copy / "tests" / "conftest.py")
+    assert new_scene(copy, "bedx") == 0
+    tests = ["tests/unit/test_scene_bedx.py", "tests/unit/test_scene_bedx_skeleton.py"]
+
+    def pytest_run():
+        env = dict(os.environ, PYTHONPATH=str(copy / "src"))
+        return subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *tests], cwd=copy,
+                              env=env, capture_output=True, text=True, timeout=600)
+
+    done = pytest_run()
+    assert done.returncode == 0 and "10 passed" in done.stdout, done.stdout[-3000:] + done.stderr[-2000:]
+    pipeline = copy / "src" / "granflow" / "scenes" / "bedx" / "pipeline.py"
+    pipeline.write_text(pipeline.read_text().replace("def packing_profile(", "def density_profile("))
+    done = pytest_run()
+    assert done.returncode == 1 and "1 failed, 9 passed" in done.stdout, done.stdout[-3000:]
+    assert "error" not in done.stdout.lower(), done.stdout[-3000:]  # no collection error
+    assert ("the skeleton's packing_profile, bulk_packing (granflow.scenes.bedx.pipeline) is gone" in done.stdout
+            and "rewrite its tests for what the scene does now" in done.stdout), done.stdout[-3000:]
+    failed = [line for line in done.stdout.splitlines() if line.startswith("FAILED")]
+    assert failed == ["FAILED tests/unit/test_scene_bedx_skeleton.py::test_the_profile_of_a_simple_cubic_packing_is_"
+                      "pi_over_6"], done.stdout[-3000:]  # the contract's tests all passed
+    assert "During handling" not in done.stdout

@@ -242,12 +242,18 @@ def test_plan_command(capsys, root, tmp_path):
 
 
 def test_plan_sees_done_cases(capsys, root, tmp_path):
-    """A case with a final status.json under the results directory is done; its rate calibrates the scene."""
+    """A case with a final status.json under the results directory is done; its rate calibrates the scene.
+    Its params.json is render's own (issue 41: plan built the record without render's ``snapshots``
+    key and called every finished case "params.json differs"; this test faked the file the same way)."""
     scene = registry.get("silo")
     sc = load_scene(root / "config" / "scenes" / "silo.yaml")
     rel = scene.case_dir({"R": 3.0})
-    _, context = scene.parameters(sc, "smoke", scene.case_from_dir(rel))
-    _fake_run(tmp_path / "silo" / "smoke" / rel, context["record"], status="completed", atom_steps=5e9, cpu=1000.0)
+    case = tmp_path / "silo" / "smoke" / rel
+    record = render_case(sc, "smoke", case, scene.case_from_dir(rel))
+    assert "snapshots" in record
+    (case / "params.json").rename(case / "rendered.json")
+    _fake_run(case, record, status="completed", atom_steps=5e9, cpu=1000.0)
+    (case / "rendered.json").rename(case / "params.json")  # the status is faked; the record is render's
     assert main(["plan", "--rung", "smoke", *SMOKE_SETS, "--set", f"results_dir={tmp_path}", "--json"]) == 0
     plan = json.loads(capsys.readouterr().out)
     silo = {r["case"]: r for r in plan["rows"] if r["scene"] == "silo"}

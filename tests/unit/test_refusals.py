@@ -210,3 +210,31 @@ def test_bad_out_path_is_refused_not_a_traceback(capsys, tmp_path):
 def test_debug_shows_the_traceback(capsys, root):
     assert main(["--debug", "check-config", str(root / "config/scenes/channel.yaml"), "--set", "case.W=-5"]) == 2
     assert "Traceback" in capsys.readouterr().err
+
+
+def test_debug_shows_the_error_of_a_scene_package_that_does_not_import(capsys, tmp_path, monkeypatch):
+    """Issue 41: --debug on a scene whose package fails to import showed the registry's traceback, not
+    the package's own error with its file and line. Now that error is the refusal's cause."""
+    import sys
+
+    from granflow import registry
+
+    broke = tmp_path / "scenes41" / "broke"
+    broke.mkdir(parents=True)
+    (tmp_path / "scenes41" / "__init__.py").write_text("")
+    (broke / "__init__.py").write_text('"""A scene with a bug."""\n\nFLOW = 1 / 0\n')
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(registry, "_found", lambda: registry.discover("scenes41"))
+    try:
+        argv = ["render", "broke", "--rung", "smoke", "--out", str(tmp_path / "out")]
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "Traceback" not in err, err  # without --debug: one line
+        assert "scene 'broke' is refused: its package does not import (ZeroDivisionError: division by zero)" in err
+        assert main(["--debug", *argv]) == 2
+        err = capsys.readouterr().err
+        assert f'File "{broke / "__init__.py"}", line 3, in <module>' in err, err
+        assert "FLOW = 1 / 0" in err and "The above exception was the direct cause of the following" in err, err
+    finally:
+        for name in [m for m in sys.modules if m == "scenes41" or m.startswith("scenes41.")]:
+            del sys.modules[name]

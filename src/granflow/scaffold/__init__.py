@@ -41,6 +41,7 @@ FILES = {
     "scene.yaml.tmpl": "config/scenes/{name}.yaml",
     "schema.yaml.tmpl": "config/schema/{name}.schema.yaml",
     "test_scene.py.tmpl": "tests/unit/test_scene_{name}.py",
+    "test_skeleton.py.tmpl": "tests/unit/test_scene_{name}_skeleton.py",
 }
 #: what a scene's name may be
 NAME_RULE = ("a lower-case Python identifier (letters a-z, digits and _, starting with a letter) that is "

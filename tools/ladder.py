@@ -23,7 +23,7 @@ sys.path.insert(0, str(ROOT / "src"))
 import pandas as pd  # noqa: E402
 
 from granflow.config import ConfigError  # noqa: E402
-from granflow.ladder import (committed_checks, figure, load_ladder, markdown, order_line, plan,  # noqa: E402,F401
+from granflow.ladder import (committed_checks, figure, load_ladder, markdown, order_line, plan, rejudge,  # noqa: E402,F401
                              record, rung_campaign, rung_checks, scatter_lines, series_lines, table, with_from_paper)
 
 
@@ -69,16 +69,29 @@ def cmd_order(args) -> int:
     return 0
 
 
+def cmd_rejudge(args) -> int:
+    """The committed ladder judged by today's rules without the runs: each row's verdict (kinds, 'not resolved',
+    one run never 'differs') in ``ladder.csv``, and ``ladder.md`` written again from it."""
+    ladder = load_ladder(args.ladder)
+    out = ROOT / "validation" / ladder["scene"] if args.out is None else Path(args.out)
+    df = rejudge(pd.read_csv(out / "ladder.csv"), ladder)
+    df.to_csv(out / "ladder.csv", index=False, float_format="%.6g")
+    (out / "ladder.md").write_text(markdown(df, ladder))
+    print(markdown(df, ladder), end="")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog=__doc__.split("\n\n", 1)[1])
     sub = parser.add_subparsers(dest="command", required=True)
     for name, func, helptext in (("prepare", cmd_prepare, "price every rung, print the target that runs them"),
                                  ("record", cmd_record, "the ladder's table and figure from the analysed rungs"),
-                                 ("order", cmd_order, "the rungs' from_paper into the committed ladder.csv and .md")):
+                                 ("order", cmd_order, "the rungs' from_paper into the committed ladder.csv and .md"),
+                                 ("rejudge", cmd_rejudge, "the committed ladder's verdicts by today's rules, no runs")):
         p = sub.add_parser(name, help=helptext)
         p.add_argument("ladder", type=Path, help="ladder file, e.g. config/ladders/silo.yaml")
-        if name != "order":
+        if name not in ("order", "rejudge"):
             p.add_argument("--results", type=Path, default=Path("results"), required=name == "record",
                            help="the results directory the rungs run in (their cases under ladders/<scene>/<rung>/)")
         if name != "prepare":

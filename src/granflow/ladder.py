@@ -33,7 +33,8 @@ import pandas as pd
 
 from granflow import registry
 from granflow.config import PROJECT_ROOT, ConfigError, check_scene_sweep, load_scene, load_yaml
-from granflow.validation import case_summary, format_with_errors
+from granflow.validation import case_summary, format_with_errors, scene_validation
+from granflow.verdicts import verdict
 
 ROOT = PROJECT_ROOT
 #: where the ladder files are, relative to the project root
@@ -196,7 +197,8 @@ def rung_checks(ladder: dict, rung: dict, results: Path) -> tuple[list, list[dic
              for p in sorted(base.glob("**/analysis/scalars.json"))}
     if not cases:
         return [], []
-    result = registry.get(ladder["scene"]).validation(base, cases)
+    # judged as the record is: the scene's check kinds, replicates pooled (granflow.validation.scene_validation)
+    result = scene_validation(registry.get(ladder["scene"]), base, cases)
     keep = [c for c in result.checks if any(c.quantity.startswith(h) for h in ladder["headlines"])]
     return keep, [case_summary(p) for p in cases.values()]
 
@@ -450,4 +452,21 @@ def record(ladder: dict, results: Path, out: Path) -> str:
     (out / "ladder.md").write_text(text)
     figure(df, ladder, out / "figures" / "ladder.png")
     return text
+
+
+def rejudge(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
+    """The committed ladder's rows judged by today's rules without the runs (as tools/rejudge_record.py does
+    for a record): each measured row's verdict from its numbers, one run each (a rung is one setting; its
+    replicate rung is its own row), of its scene's kind (``check_kinds``: a diagnostic gets no verdict)."""
+    kinds = registry.get(ladder["scene"]).check_kinds
+    out = df.copy()
+    for i, r in out.iterrows():
+        if not str(r["state"]).startswith("run"):
+            continue
+        rng = (r["paper_lo"], r["paper_hi"]) if np.isfinite([r["paper_lo"], r["paper_hi"]]).all() else None
+        syst = float(r["syst"]) if pd.notna(r["syst"]) else float("nan")
+        stat = float(r["stat"]) if pd.notna(r["stat"]) else float("nan")
+        out.at[i, "verdict"] = verdict(float(r["ours"]), stat, rng, syst=syst,
+                                       kind=kinds.get(r["quantity"], "comparison"))[0]
+    return out
 

@@ -209,3 +209,21 @@ def test_order_carries_the_key_into_a_record_without_its_runs_and_changes_nothin
     # the table the record writes has the column in the same place
     df = ladder_tool.with_from_paper(old.assign(ours=pd.to_numeric(old["ours"], errors="coerce")), ladder)
     assert list(df.columns[:3]) == ["rung", "knob", "from_paper"] and df["from_paper"].iloc[0] == 3
+
+
+def test_committed_ladders_are_judged_by_todays_rules(root):
+    """Every committed ladder row's verdict is what granflow.ladder.rejudge gives its numbers: a diagnostic of
+    the scene carries none, and one run never reads 'differs'."""
+    import pandas as pd
+
+    from granflow.ladder import load_ladder, rejudge
+
+    for path in sorted((root / "config" / "ladders").glob("*.yaml")):
+        ladder = load_ladder(path)
+        csv = root / "validation" / ladder["scene"] / "ladder.csv"
+        if not csv.exists():
+            continue
+        df = pd.read_csv(csv)
+        assert list(rejudge(df, ladder)["verdict"]) == list(df["verdict"]), ladder["scene"]
+        run = df[df["state"].astype(str).str.startswith("run")]
+        assert not run["verdict"].astype(str).str.startswith("differs").any(), ladder["scene"]

@@ -276,7 +276,8 @@ def _finite_key(value: float) -> float:
 
 
 def ladder_picks(rows: list[dict]) -> list[tuple[dict, list[str]]]:
-    """The rungs of a ladder the front page shows, each with what it is, for the ladder's first quantity:
+    """The rungs of a ladder the front page shows, each with what it is, for the ladder's first quantity
+    compared with the paper:
     its first rung (:data:`VALIDATION_CASE`); the measured rung nearest the paper's setup by the order its
     ladder file declares (``from_paper``, the smallest; the first of equals), whatever its number
     (:data:`NEAREST_SETUP`); and the measured rung with the smallest |difference from the paper|
@@ -285,7 +286,9 @@ def ladder_picks(rows: list[dict]) -> list[tuple[dict, list[str]]]:
     run = [r for r in rows if str(r.get("state", "")).startswith("run") and r.get("quantity")]
     if not run:
         return []
-    mine = [r for r in run if r["quantity"] == run[0]["quantity"]]
+    # the first quantity compared with the paper (a consistency check or a diagnostic has no verdict to show)
+    judged = [r for r in run if not str(r.get("verdict", "")).endswith("no verdict against the paper")] or run
+    mine = [r for r in run if r["quantity"] == judged[0]["quantity"]]
     steps = [r for r in mine if str(r.get("replicate", "")).lower() != "true" and math.isfinite(r["ours"])]
     placed = [r for r in steps if math.isfinite(r.get("from_paper", math.nan))]
     nearest = min(placed, key=lambda r: r["from_paper"], default=None)

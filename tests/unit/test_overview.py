@@ -177,3 +177,13 @@ def test_page_starts_at_its_top_in_snakemakes_report():
     html = docutils.core.publish_parts(text.replace("{% raw %}", "").replace("{% endraw %}", ""),
                                        writer=Writer())["body"]
     assert "<style>" in html and "flex-start" in html
+
+
+def test_a_ladders_diagnostic_first_quantity_is_passed_over():
+    diag = {"rung": "base", "state": "run", "quantity": "pure power law", "ours": 0.68, "from_paper": 2,
+            "abs_rel_difference": 0.37, "replicate": False, "verdict": "diagnostic: no verdict against the paper"}
+    comp = dict(diag, quantity="curvature", ours=0.1, verdict="within error (1.1 σ)", abs_rel_difference=0.1)
+    from granflow.overview import ladder_picks
+
+    picks = ladder_picks([diag, comp])
+    assert [r["quantity"] for r, _ in picks] == ["curvature"]

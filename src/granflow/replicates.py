@@ -58,14 +58,13 @@ def _fmt(x: float) -> str:
     return f"{x:.4g}" if math.isfinite(x) else "–"
 
 
-def pool(results: list, seeds: list) -> object:
+def pool(results: list, seeds: list):
     """One :class:`~granflow.validation.ValidationResult` from the replicates' (same order as ``seeds``).
 
     Checks are matched by quantity and case; a check missing from a replicate, or NaN there, is
     pooled over those that have it (its ``n_replicates`` says how many), a check only one made kept. Profiles, figures and
     differences are the first replicate's.
     """
-    from .validation import Check  # granflow.validation calls pool: imported here, not at the top
 
     if len(results) == 1:
         return results[0]
@@ -92,8 +91,6 @@ def pool(results: list, seeds: list) -> object:
         note = ((f"{first.note.rstrip('. ')}. " if first.note else "")
                 + f"Replicates ({n} of {len(results)} seeds measured it): {each}; mean {_fmt(ours)}, "
                   f"scatter s/√n = {_fmt(r2r)} (run_to_run)")
-        fields_ = {k: getattr(first, k) for k in ("quantity", "paper", "source", "case", "paper_range",
-                                                  "paper_error", "unit", "variants", "kind")}
-        pooled.append(Check(ours=ours, error=error, syst=syst, run_to_run=r2r, n_replicates=n, note=note,
-                            **fields_))
+        # the first replicate's check with the pooled numbers: replace() judges it anew (its __post_init__)
+        pooled.append(replace(first, ours=ours, error=error, syst=syst, run_to_run=r2r, n_replicates=n, note=note))
     return replace(results[0], checks=pooled)

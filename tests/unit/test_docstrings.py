@@ -97,3 +97,23 @@ def test_the_walk_finds_the_interface():
 def test_every_public_function_has_a_numpydoc_docstring(path):
     problems = [p for name, node in FUNCTIONS if name.startswith(f"{path.stem}.") for p in _problems(name, node)]
     assert not problems, "\n".join(problems)
+
+
+def test_every_source_file_compiles_without_a_warning():
+    """A docstring with ``\\s`` in LaTeX but no ``r`` prefix is an invalid escape: a DeprecationWarning in
+    every run today, a SyntaxError in a later Python. Every tracked .py under src/, tools/ and bench/
+    compiles with warnings as errors."""
+    import warnings
+
+    root = SRC.parent
+    files = [p for d in ("src", "tools", "bench") for p in sorted((root / d).rglob("*.py"))]
+    assert len(files) > 50
+    bad = []
+    for path in files:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            try:
+                compile(path.read_text(encoding="utf-8"), str(path), "exec")
+            except (SyntaxError, Warning) as exc:
+                bad.append(f"{path.relative_to(root)}: {exc}")
+    assert not bad, "\n".join(bad)

@@ -199,7 +199,7 @@ def provenance(record: dict, status: str) -> str:
 
 
 def window_acceleration(thermo: pd.DataFrame) -> dict:
-    """The bed's mean acceleration over the averaging window, :math:`a = du_{cm}/dt` in g.
+    r"""The bed's mean acceleration over the averaging window, :math:`a = du_{cm}/dt` in g.
 
     A straight line through the averaging stage's thermo rows (``stage == "average"``) of
     :math:`u_{cm}` against time (√(gd) per √(d/g)); its standard error is the fit's, times

@@ -187,7 +187,7 @@ def case_checks(case: ChuteCase, errors: dict) -> list[Check]:
 
 
 def acceleration_checks(case: ChuteCase, ratio: float, se: float, tan: float, why: str) -> list[Check]:
-    """The momentum balance with the bed's acceleration over the window, and that acceleration.
+    r"""The momentum balance with the bed's acceleration over the window, and that acceleration.
 
     A bed still creeping at :math:`a` (:func:`~granflow.scenes.chute.analysis.window_acceleration`,
     in g) balances :math:`-\sigma_{xz}/\sigma_{zz} = \tan\theta - a/\cos\theta`: the comparison

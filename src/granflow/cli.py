@@ -39,6 +39,7 @@ Coarse-grain any LAMMPS dump (see ``granflow cg --help``)::
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import math
 import os
@@ -48,6 +49,7 @@ import traceback
 from pathlib import Path
 
 from postproc import cg_cli
+from postproc.safe_write import OutputWriteError
 
 from . import one_scene, registry
 from .campaign import load_campaign
@@ -558,6 +560,20 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+#: OS errors of the machine, not of the input: a full disk or quota, an I/O error, no memory. They end a
+#: command with exit 1 and "stopped", never "refused" (exit 2 says the input was wrong)
+MACHINE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.ENOMEM})
+
+
+def _machine_error_text(exc: OSError) -> str:
+    """One line: what stopped the command and where (an :class:`OutputWriteError` says that the earlier
+    files are kept)."""
+    if isinstance(exc, OutputWriteError):
+        return str(exc)
+    where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+    return f"{exc.strerror or exc} ({errno.errorcode.get(exc.errno, exc.errno)}){where}"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one subcommand. Exit codes: 0 done, 2 bad input (refused before anything ran, no
     traceback), 1 a run or step that failed; ``--debug`` shows the traceback of any error."""
@@ -577,6 +593,10 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:
         if args.debug:
             traceback.print_exc()
+        if exc.errno in MACHINE_ERRNOS:  # the machine stopped it (a full disk, ...), not the user's input
+            print(f"granflow: stopped: {_machine_error_text(exc)}; free the space (or the device) and rerun",
+                  file=sys.stderr)
+            return EXIT_FAILED
         where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
         print(f"granflow: refused: {exc.strerror or exc}{where}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -216,3 +216,32 @@ def test_write_text_on_a_full_disk_names_the_file_and_keeps_the_old_one(tmp_path
     assert caught.value.errno == errno.ENOSPC and caught.value.filename == str(path)
     assert str(caught.value).startswith(f"could not write {path}: No space left on device (ENOSPC)")
     assert path.read_bytes() == b"old" and sorted(p.name for p in tmp_path.iterdir()) == ["params.json"]
+
+
+def test_render_on_a_full_disk_says_stopped_not_refused(tmp_path, capsys, monkeypatch):
+    """Before: ``granflow render`` on a full disk said "refused" (exit 2), which tells the user their input
+    was wrong. Now a full disk (ENOSPC) ends it with exit 1, one line "stopped: could not write <file>: No
+    space left on device ...", no traceback, and the earlier deck of that name unchanged; a mistake of the
+    user's (a missing --config file) is still refused with exit 2."""
+    out = tmp_path / "case"
+    render = ["render", "channel", "--rung", "smoke", "--out", str(out)]
+    assert granflow(render) == 0
+    capsys.readouterr()
+    earlier = (out / "flow.lmp").read_bytes()
+    real = Path.write_text
+
+    def flow_fails(self, *args, **kwargs):
+        if self.name.startswith(".flow.lmp."):
+            enospc()
+        return real(self, *args, **kwargs)
+
+    with monkeypatch.context() as m:
+        m.setattr(Path, "write_text", flow_fails)
+        assert granflow([*render, "--force"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"granflow: stopped: could not write {out / 'flow.lmp'}: No space left on device (ENOSPC)")
+    assert "refused" not in err and "Traceback" not in err and err.count("\n") == 1
+    assert (out / "flow.lmp").read_bytes() == earlier
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+    assert granflow([*render, "--force", "--config", str(tmp_path / "missing.yaml")]) == 2
+    assert "refused" in capsys.readouterr().err

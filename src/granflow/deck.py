@@ -245,6 +245,33 @@ def render_case(scene: dict, rung_name: str, outdir: str | Path, case: dict | No
     return record
 
 
+def check_case_decks(case_dir: str | Path, record: dict) -> None:
+    """Refuse a case whose decks on disk hold a line its scene's templates could not have written.
+
+    ``granflow run`` (:func:`granflow.runner.run_case`) reads every ``<stage>.lmp`` of ``case_dir`` as
+    it is, so a deck edited after :func:`render_case` wrote it (a ``shell`` line, a command no
+    template writes) would run whatever it holds. Each ``*.lmp`` of ``case_dir`` is checked as a
+    freshly rendered one is (:func:`granflow.deck_guard.check_deck`, against the commands of the
+    template of ``record["scene"]``, the case's checked ``params.json``), before anything runs.
+
+    Raises
+    ------
+    DeckError
+        Naming the file, the line and why; nothing ran.
+    """
+    scene = check_name("scene", record["scene"])
+    env = environment()
+    try:
+        template = env.get_template(f"{scene}.lmp.j2")
+    except jinja2.TemplateNotFound:
+        raise DeckError(f"{Path(case_dir) / 'params.json'}: scene = {scene!r} has no deck template among "
+                        f"the scene packages: allowed a case rendered from a registered scene; nothing ran") from None
+    allowed = template_commands(env, template.name)
+    for deck in sorted(Path(case_dir).glob("*.lmp")):
+        text = deck.read_text(encoding="utf-8", errors="replace")
+        check_deck(text, allowed, str(deck), outcome="nothing ran: render the case again")
+
+
 def template_path(filename: str) -> str:
     """Where a scene's template lives, for the deck's header: relative to the project root
     (``src/granflow/scenes/<scene>/<scene>.lmp.j2``), or ``<package>/<file>`` for a package

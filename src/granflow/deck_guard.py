@@ -200,11 +200,12 @@ def commands(line: str) -> list[str]:
     return out
 
 
-def check_deck(text: str, allowed: frozenset, where: str) -> None:
+def check_deck(text: str, allowed: frozenset, where: str, outcome: str = "no deck was written") -> None:
     """Refuse a rendered deck holding a line granflow's templates could not have written.
 
     ``allowed``: the commands of the templates (:func:`template_commands`); ``where``: the deck's
-    name in the message (e.g. ``init.lmp of chute at rung demo``).
+    name in the message (e.g. ``init.lmp of chute at rung demo``); ``outcome``: what the refusal
+    left undone, the message's last words (a deck checked on disk before a run: nothing ran).
 
     Raises
     ------
@@ -218,27 +219,27 @@ def check_deck(text: str, allowed: frozenset, where: str) -> None:
         bad = next((ch for ch in line if not ONE_LINE.fullmatch(ch)), None)
         if bad is not None:
             raise DeckError(f"{where}, line {no}: {line!r} holds {_char(bad)}: allowed printable ASCII "
-                            f"only; no deck was written")
+                            f"only; {outcome}")
     for first, last, line in logical_lines(text):
         at = f"{where}, line {first}" + (f"-{last}" if last > first else "")
         if '"""' in line:
             raise DeckError(f"{at}: {line!r} holds a triple quote, which LAMMPS reads across lines: "
-                            f"granflow's templates never write one; no deck was written")
+                            f"granflow's templates never write one; {outcome}")
         try:
             words, comment = split_command(line)
             found = commands(line)
         except ValueError as exc:
-            raise DeckError(f"{at}: {line!r}: {exc}; no deck was written") from None
+            raise DeckError(f"{at}: {line!r}: {exc}; {outcome}") from None
         if comment and last > first:
             raise DeckError(f"{at}: {line!r} is a comment continued with &, which hides the line after "
-                            f"it: granflow's templates never write one; no deck was written")
+                            f"it: granflow's templates never write one; {outcome}")
         for command in found:
             if command in FORBIDDEN:
                 raise DeckError(f"{at}: {line.strip()!r}: the command {command} {FORBIDDEN[command]}, "
-                                f"which a deck of granflow never does; no deck was written")
+                                f"which a deck of granflow never does; {outcome}")
             if command not in allowed or not COMMAND.fullmatch(command):
                 raise DeckError(f"{at}: {line.strip()!r}: {command!r} is not a command the scene's templates "
-                                f"write: allowed {', '.join(sorted(allowed))}; no deck was written")
+                                f"write: allowed {', '.join(sorted(allowed))}; {outcome}")
 
 
 # ---------------------------------------------------------------------------- the allow-list

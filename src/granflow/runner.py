@@ -39,6 +39,7 @@ import pandas as pd
 
 from . import registry, restarts
 from .caselock import LOCK_NAME, case_lock
+from .deck import check_case_decks
 from .interrupts import (INTERRUPTING, Interrupted, as_interrupted, interrupted_reason, lammps_preexec,
                          launch_signal, sigterm_interrupts, stop)
 from .launch import RANKS, SRUN_MPI_TYPES, LauncherError, Tools, launcher_argv  # noqa: F401 (re-exported)
@@ -516,7 +517,8 @@ def run_case(case_dir: str | Path, nprocs: int = 1, launcher: str | None = None)
     (its log stays; a rerun resumes after the last complete segment), instead of ending the
     runner alone and leaving LAMMPS running; either ends the run with status ``interrupted``.
     """
-    read_record(case_dir)  # a hand-edited params.json is refused naming its key, before anything runs
+    record = read_record(case_dir)  # a hand-edited params.json is refused naming its key, before anything runs
+    check_case_decks(case_dir, record)  # so is a deck edited after rendering (a shell line, ...)
     runner = CaseRunner(case_dir, nprocs, tools=Tools.default(launcher))
     with case_lock(runner.case_dir), sigterm_interrupts():
         return runner.run()

@@ -293,3 +293,23 @@ def test_cli_render_refuses_a_deck_line_with_exit_2(capsys, tmp_path, monkeypatc
     assert re.search(r"^granflow: refused: init\.lmp of chute at rung smoke, line \d+: 'run .*': 'run' is not "
                      r"a command the scene's templates write", err), err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("line", [f"shell touch {MARKER}", "python evil here", "bond_style harmonic",
+                                  "log /tmp/granflow-deck-guard.log",
+                                  "print \"\"\"", "run 0 every 1 \"shell touch x\""])
+def test_run_refuses_a_deck_edited_after_rendering(line, capsys, tmp_path):
+    """``granflow run`` reads the case's decks as they are on disk: a line added after ``render`` wrote
+    them (a shell command, a command no template writes, a triple quote, a shell inside ``run every``)
+    is refused before anything runs, naming the file and the line: exit 2, no LAMMPS, no run directory,
+    the marker never made. The decks as rendered pass the same check (granflow.deck.check_case_decks)."""
+    out = tmp_path / "case"
+    assert main(["render", "chute", "--rung", "smoke", "--out", str(out)]) == 0
+    deck.check_case_decks(out, config.load_yaml(out / "params.json"))   # as rendered: passes
+    flow = out / "flow.lmp"
+    flow.write_text(flow.read_text() + line + "\n")
+    capsys.readouterr()
+    assert main(["run", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"granflow: refused: {flow}, line ") and "nothing ran: render the case again" in err, err
+    assert "Traceback" not in err and not Path(MARKER).exists() and not (out / "run").exists()

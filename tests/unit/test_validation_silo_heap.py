@@ -488,12 +488,22 @@ def test_heap_alpha_is_read_on_the_planar_middle_of_an_s_shaped_surface():
     Z = z[None, :] + v_r * T
     surface = pd.DataFrame({"t": T.ravel(), "x_lab": X.ravel(), "z_s": Z.ravel()})
     case = types.SimpleNamespace(tables={"surface": surface}, record={"geometry": {"W": W, "x_feed": x_feed}})
+    case.update = lambda **kw: case.__dict__.update(kw)
     a_mid, se, _ = hv.alpha_planar(case)
     assert a_mid == pytest.approx(alpha, abs=1e-9) and se < 1e-9
     assert hv.alpha_planar(case, (0.0, 1.0))[0] < alpha - 3       # the S-shape flattens the whole-surface fit
     # the variants inside the planar part agree: no systematic error from the fit range
     for middle in hv.ALPHA_MIDDLE_VARIANTS:
         assert hv.alpha_planar(case, middle)[0] == pytest.approx(alpha, abs=1e-9)
+    # the paper fits the entire free surface: that reading is a variant of the check, and its shift the syst
+    case.record["geometry"]["theta_deg"] = 24.0
+    case.update(name="mix~bi1-2/mdot~33", measured=True, status_note="", is_case=lambda *a: True,
+                get=lambda key: {"alpha_deg": float("nan")}[key])
+    check = hv.alpha_check(case)
+    whole = hv.alpha_planar(case, (0.0, 1.0))[0]
+    assert check.ours == pytest.approx(alpha, abs=1e-9)
+    assert "the whole flowing length (the paper's fit of the entire free surface)" in check.variants
+    assert check.syst == pytest.approx(alpha - whole, rel=1e-3)   # less its own statistics (Barlow), tiny here
 
 
 def test_heap_delta_and_tail_carry_the_other_origin_as_a_variant(tmp_path):

@@ -126,6 +126,7 @@ def test_a_case_built_on_the_papers_physics_passes_every_check(tmp_path):
     # Ω_z/ω_z built 1/2 in every bin beyond the wall bin
     assert checks[mc.Q_SPIN].ours == pytest.approx(0.5, rel=1e-9)
     assert "The wall bin reads 0.2" in checks[mc.Q_SPIN].note
+    assert "By bin (its centre's distance from the wall): 2 d_p: 0.50 ± " in checks[mc.Q_SPIN].note
     # d_p γ̇/√T built as 1 + 0.5 min(x, 3): from x = 0.75 to 2, a rise of 0.625
     assert checks[mc.Q_SQRT_T].ours == pytest.approx(0.625, rel=1e-6)
     # u_cm: white noise of 0.4 % around its mean (sampling error of a standard deviation over 400 samples ~4 %)

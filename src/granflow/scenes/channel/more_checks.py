@@ -173,7 +173,8 @@ def spin_ratio(a: ChannelAnalysis, x_start: float = WALL_LAYER, x_end: float | N
     keep = (x >= x_start) & (x < end)
     coef, cov, chi2_nu, nu = weighted_polyfit(x[keep], r[keep], se[keep], 0)
     return {"mean": float(coef[0]), "se": float(math.sqrt(cov[0, 0])), "chi2_nu": chi2_nu, "n": nu + 1,
-            "wall": float(r[0]), "wall_se": float(se[0])}
+            "wall": float(r[0]), "wall_se": float(se[0]),
+            "bins": "; ".join(f"{xi:g} d_p: {ri:.2f} ± {si:.2g}" for xi, ri, si in zip(x[keep], r[keep], se[keep]))}
 
 
 def shear_over_sqrt_t(a: ChannelAnalysis, inner: int = 1) -> dict:
@@ -295,7 +296,8 @@ def case_more_checks(case) -> list[Check]:
                      note=f"weighted mean of Ω_z/ω_z (ω_z = du_y/dx from the folded profile's gradient) over the "
                           f"{spin['n']} bins from 2 d_p to the plug edge x = {a.zones.x_dense_plug:.3g} d_p (shear "
                           f"rate within 2 errors of zero beyond it, where the ratio is noise); χ²/ν = "
-                          f"{spin['chi2_nu']:.2g}; {INDEPENDENT}. The wall bin reads {spin['wall']:.3g} ± "
+                          f"{spin['chi2_nu']:.2g}; {INDEPENDENT}. By bin (its centre's distance from the wall): "
+                          f"{spin['bins']}. The wall bin reads {spin['wall']:.3g} ± "
                           f"{spin['wall_se']:.2g} (paper: differs from 1/2 there)"))
 
     sq = shear_over_sqrt_t(a)

@@ -3,6 +3,7 @@ and the workload of a case (stages of steps and segments), each a small dataclas
 (:class:`granflow.registry.Scene` holds them; :mod:`granflow.registry` re-exports them)."""
 from __future__ import annotations
 
+import importlib
 import math
 from dataclasses import dataclass
 from typing import Callable, ClassVar
@@ -62,6 +63,37 @@ class SweepAxis:
             For a number axis whose ``text`` is not a number.
         """
         return text if self.name else float(text) / self.scale
+
+
+@dataclass(frozen=True)
+class Deferred:
+    """A function named by its module and name, imported on its first call.
+
+    A scene declares its figures (and may name its analysis) without importing them: every process
+    that only lists the scenes (each workflow job, each ``granflow`` command) then skips matplotlib
+    and scipy, about a CPU-second each. Calling it calls the function with the same arguments.
+
+    Parameters
+    ----------
+    module : str
+        The module's full name, e.g. ``granflow.scenes.heap.figures``.
+    name : str
+        The function's name in it.
+    """
+
+    module: str
+    name: str
+
+    @property
+    def __name__(self) -> str:  # noqa: D401 (what a function's __name__ says)
+        return self.name
+
+    def function(self) -> Callable:
+        """The function itself (importing its module)."""
+        return getattr(importlib.import_module(self.module), self.name)
+
+    def __call__(self, *args, **kwargs):
+        return self.function()(*args, **kwargs)
 
 
 @dataclass(frozen=True)

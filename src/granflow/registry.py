@@ -34,7 +34,7 @@ from pathlib import Path
 
 import yaml
 
-from .declarations import FigureSpec, Knob, SnapshotView, Stage, SweepAxis, Workload  # noqa: F401 (re-exported)
+from .declarations import Deferred, FigureSpec, Knob, SnapshotView, Stage, SweepAxis, Workload  # noqa: F401 (re-exported)
 from .scene_base import DEFAULTED, GENERIC_STATUSES, OPTIONAL, REQUIRED, Scene, overrides  # noqa: F401 (re-exported)
 from .yamlio import ConfigError
 
@@ -248,6 +248,6 @@ def finite(value) -> float:
     return value if math.isfinite(value) else float("nan")
 
 
-__all__ = ["Scene", "SweepAxis", "FigureSpec", "Knob", "Stage", "Workload", "SnapshotView", "SceneError",
+__all__ = ["Scene", "SweepAxis", "Deferred", "FigureSpec", "Knob", "Stage", "Workload", "SnapshotView", "SceneError",
            "REQUIRED", "OPTIONAL", "DEFAULTED", "missing", "PackageCheck", "check_package", "package_at", "discover",
            "scenes", "names", "refused", "get", "finite"]

@@ -29,7 +29,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
-from emcee.autocorr import integrated_time
 
 #: Fewest finite values from which :math:`g` is estimated (NaN below).
 MIN_SAMPLES = 4
@@ -106,6 +105,8 @@ def statistical_inefficiency(x, c: float = 5.0) -> float:
     if np.all(x == x[0]):
         return 1.0
     with _quiet_emcee():
+        from emcee.autocorr import integrated_time  # emcee imports scipy.stats (~1 CPU-s): only when used
+
         g = float(integrated_time(x, c=c, tol=RELIABLE_OVER_G, quiet=True)[0])
     return max(g, 1.0) if np.isfinite(g) else float("nan")
 

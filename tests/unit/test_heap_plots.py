@@ -153,6 +153,11 @@ def checked_fits(monkeypatch):
 def test_registry_names():
     assert list(hp.HEAP_FIGURES) == list(EXPECTED_AXES)
     assert all(f.__name__ == name for name, f in hp.HEAP_FIGURES.items())
+    # the scene declares them by name, drawn on call (granflow.registry.Deferred): the same figures, in order
+    from granflow.scenes.heap.scene import HeapScene
+
+    assert list(HeapScene.figures) == list(hp.HEAP_FIGURES)
+    assert all(spec.draw.function() is hp.HEAP_FIGURES[name] for name, spec in HeapScene.figures.items())
 
 
 @pytest.mark.parametrize("name", list(EXPECTED_AXES))

@@ -133,6 +133,11 @@ def expected_axes(name: str, n_cases: int) -> int:
 def test_registry_names():
     assert list(sp.SILO_FIGURES) == list(EXPECTED_AXES)
     assert all(f.__name__ == name for name, f in sp.SILO_FIGURES.items())
+    # the scene declares them by name, drawn on call (granflow.registry.Deferred): the same figures, in order
+    from granflow.scenes.silo.scene import SiloScene
+
+    assert list(SiloScene.figures) == list(sp.SILO_FIGURES)
+    assert all(spec.draw.function() is sp.SILO_FIGURES[name] for name, spec in SiloScene.figures.items())
 
 
 def test_synthetic_cases_are_steady(cases):

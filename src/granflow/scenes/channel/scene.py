@@ -7,12 +7,14 @@ from pathlib import Path
 
 import pandas as pd
 
-import granflow.scenes.channel.figures as figures
-import granflow.scenes.channel.figures_plug as figures_plug
 from granflow.config import require
-from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, Stage, SweepAxis
+from granflow.registry import Deferred, FigureSpec, Knob, Scene, SnapshotView, Stage, SweepAxis
 
 from .parameters import channel_parameters
+
+
+#: the module of the figures (imported when one is drawn: granflow.registry.Deferred)
+_FIGURES = "granflow.scenes.channel.figures"
 
 
 def _or_placeholder(draw):
@@ -45,12 +47,12 @@ class ChannelScene(Scene):
                    "plug: rms non-affine displacement over the window": "diagnostic"}
     sweep = (SweepAxis("W", "W"), SweepAxis("phi_mean", "phi"))
     figures = {
-        "fig04_velocity": FigureSpec(_or_placeholder(figures.fig_velocity_profiles), "4"),
-        "fig05c_ratio": FigureSpec(_or_placeholder(figures.fig_ratio_vs_phi), "5(c)"),
-        "fig06_stress": FigureSpec(_or_placeholder(figures.fig_stress_profiles), "6"),
-        "fig08_phi_shear_T": FigureSpec(_or_placeholder(figures.fig_phi_shear_temperature), "8"),
-        "fig11_rheology": FigureSpec(_or_placeholder(figures.fig_rheology), "11"),
-        "fig_steadiness_plug": FigureSpec(_or_placeholder(figures_plug.fig_steadiness_plug), "—"),
+        "fig04_velocity": FigureSpec(_or_placeholder(Deferred(_FIGURES, "fig_velocity_profiles")), "4"),
+        "fig05c_ratio": FigureSpec(_or_placeholder(Deferred(_FIGURES, "fig_ratio_vs_phi")), "5(c)"),
+        "fig06_stress": FigureSpec(_or_placeholder(Deferred(_FIGURES, "fig_stress_profiles")), "6"),
+        "fig08_phi_shear_T": FigureSpec(_or_placeholder(Deferred(_FIGURES, "fig_phi_shear_temperature")), "8"),
+        "fig11_rheology": FigureSpec(_or_placeholder(Deferred(_FIGURES, "fig_rheology")), "11"),
+        "fig_steadiness_plug": FigureSpec(_or_placeholder(Deferred(_FIGURES + "_plug", "fig_steadiness_plug")), "—"),
     }
     table_sort = ("W", "phi_mean")
     headline = (("u_ratio", "u_max/u_slip"), ("delta_over_W", "δ0.95/W"),

@@ -8,11 +8,12 @@ import numpy as np
 import pandas as pd
 
 from granflow.config import ConfigError
-from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, SweepAxis, finite
+from granflow.registry import Deferred, FigureSpec, Knob, Scene, SnapshotView, SweepAxis, finite
 
-import granflow.scenes.chute.analysis as analysis
-import granflow.scenes.chute.figures as figures
 from .parameters import chute_parameters
+
+#: the module of the figures (imported when one is drawn: granflow.registry.Deferred)
+_FIGURES = "granflow.scenes.chute.figures"
 
 
 class ChuteScene(Scene):
@@ -30,9 +31,9 @@ class ChuteScene(Scene):
                    "u_cm acceleration over the averaging window / (g sin θ)": "diagnostic"}
     sweep = (SweepAxis("theta_deg", "theta"),)
     figures = {  # captions: captions.yaml
-        "fig_profiles": FigureSpec(figures.fig_profiles, "Silbert et al. 2001, figs. 3-5 (velocity, packing, temperature profiles)"),
-        "fig_stress": FigureSpec(figures.fig_stress, "Silbert et al. 2001, section III (momentum balance)"),
-        "fig_regimes": FigureSpec(figures.fig_regimes, "Silbert et al. 2001, fig. 2 (flow regimes)"),
+        "fig_profiles": FigureSpec(Deferred(_FIGURES, "fig_profiles"), "Silbert et al. 2001, figs. 3-5 (velocity, packing, temperature profiles)"),
+        "fig_stress": FigureSpec(Deferred(_FIGURES, "fig_stress"), "Silbert et al. 2001, section III (momentum balance)"),
+        "fig_regimes": FigureSpec(Deferred(_FIGURES, "fig_regimes"), "Silbert et al. 2001, fig. 2 (flow regimes)"),
     }
     table_sort = ("theta",)
     # a bed that stopped will not start again: end the flow stage at once
@@ -125,6 +126,8 @@ class ChuteScene(Scene):
 
     # -- analysis -----------------------------------------------------------------------
     def analyse(self, case_dir: Path):
+        from . import analysis
+
         return analysis.analyse_case(case_dir)
 
     def table(self, rows):
@@ -160,6 +163,8 @@ class ChuteScene(Scene):
     def observables(self, case_dir: Path, record: dict, t_average: float, block=None):
         """Headline numbers over the first ``t_average`` of the averaging stage (or ``block`` of it)."""
         import json
+
+        from . import analysis
 
         window = block or (0.0, t_average)
         case_dir = Path(case_dir)

@@ -8,14 +8,21 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-import granflow.scenes.silo.figures as figures
 from granflow.config import require
-from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, SweepAxis
+from granflow.registry import Deferred, FigureSpec, Knob, Scene, SnapshotView, SweepAxis
 
 from .parameters import discharge_verdict, gas_count, rim_ring, silo_parameters, species
 
 #: analysis tables of every case (plus kinetic_w<w> for each kernel width of cg.w_scan)
 TABLES = ("flow", "fields", "contact", "orifice_plane", "kinetic_eq7", "kinetic_fine")
+
+#: the names of silo/figures' SILO_FIGURES, in its order (tests/unit/test_silo_plots.py keeps them equal): the
+#: scene declares its figures without importing matplotlib (granflow.registry.Deferred)
+FIGURE_NAMES = (
+    "fig02_flow_rate", "fig03_fields", "fig04_phi_orifice", "fig05_vz_orifice", "fig05d_orifice_plane",
+    "fig06_contact_pressure", "fig07_kinetic_pressure_maps", "fig08_kinetic_axis", "fig09_kinetic_w",
+    "fig10_cumulative", "fig11_partial", "fig12_partial_over_phi", "fig13_beverloo",
+)
 
 
 class SiloScene(Scene):
@@ -39,9 +46,10 @@ class SiloScene(Scene):
                    "h_c ∝ R^β: exponent β": "diagnostic",
                    "Beverloo C": "diagnostic", "Beverloo k": "diagnostic"}
     sweep = (SweepAxis("R", "R"),)
-    # the figures of silo/figures (SILO_FIGURES), with the paper figure each reproduces
-    figures = {name: FigureSpec(draw, "Beverloo" if name == "fig13_beverloo" else name[3:5].lstrip("0"))
-               for name, draw in figures.SILO_FIGURES.items()}
+    # the figures of silo/figures (SILO_FIGURES), with the paper figure each reproduces; drawn when asked
+    figures = {name: FigureSpec(Deferred("granflow.scenes.silo.figures", name),
+                                "Beverloo" if name == "fig13_beverloo" else name[3:5].lstrip("0"))
+               for name in FIGURE_NAMES}
     table_sort = ("R",)
     headline = (("W_f", "steady W_f (kg/s)"), ("profile_deviation", "orifice profile vs √(1−(r/R)²)"),
                 ("h_c_over_R", "h_c/R"))

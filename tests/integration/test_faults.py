@@ -53,7 +53,12 @@ def test_killed_run_resumes_and_agrees(channel_scene, tmp_path, finished_two_seg
     while not marker.exists() and time.time() < deadline and proc.poll() is None:
         time.sleep(0.05)
     assert marker.exists(), "the run never reached its second averaging segment"
-    time.sleep(0.5)  # well inside the second averaging segment (several seconds long)
+    # kill well inside the second averaging segment (several seconds long): once its LAMMPS has
+    # started (its log exists; on a loaded machine the runner takes a while to launch it), half a second on
+    second_log = killed / "run" / "logs" / "average_002.log"
+    while not second_log.exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    time.sleep(0.5)
     os.killpg(proc.pid, signal.SIGTERM)
     proc.wait(timeout=60)
     assert not (killed / "run" / "average_002.restart").exists(), "the kill came too late to test resuming"
@@ -89,6 +94,9 @@ def test_sigterm_to_the_runner_alone_stops_lammps_too(channel_scene, tmp_path):
     """A kill of the runner's PID only (not its process group) must not leave LAMMPS running in run/."""
     scene = two_segment_scene(channel_scene)
     scene["rungs"]["smoke"].update(t_flow_max=200.0, t_segment=200.0)  # one long flow segment
+    # the kill needs a LAMMPS of the case in its flow segment, not a settled bed: 2 instead of the
+    # 25 time units of settling (init was 3/4 of the test's CPU time)
+    scene["protocol"]["settle_time"] = 2.0
     render_case(scene, "smoke", tmp_path, {"phi_mean": 0.58})
     proc = subprocess.Popen([str(BIN / "granflow"), "run", str(tmp_path), "--np", "1"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True, text=True)
@@ -131,8 +139,16 @@ def test_truncated_dump_fails_naming_file_and_frame(finished_two_segment_run, tm
 def test_snakemake_marks_nothing_complete_after_a_failure(tmp_path, root, replace_once, scenes_off):
     """A damaged dump makes the analysis rule fail; its outputs do not exist afterwards."""
     results = tmp_path / "results"
-    scene = (root / "config" / "scenes" / "channel.yaml").read_text()
-    (tmp_path / "channel.yaml").write_text(replace_once(scene, "average_unsteady: false", "average_unsteady: true"))
+    text = replace_once((root / "config" / "scenes" / "channel.yaml").read_text(),
+                        "average_unsteady: false", "average_unsteady: true")
+    # the failure needs a dump, not a long run: a shorter smoke rung (4 + 3 time units, 6 frames;
+    # as tests/integration/test_damaged_intermediates.py) whose one dump is cut in half below
+    head, rest = text.split("\n  smoke:", 1)
+    smoke, tail = rest.split("\n  demo:", 1)
+    for old, new in (("t_flow_max: 20.0", "t_flow_max: 4.0"), ("t_segment: 10.0", "t_segment: 4.0"),
+                     ("t_average: 10.0", "t_average: 3.0"), ("dump_interval: 1.0", "dump_interval: 0.5")):
+        smoke = replace_once(smoke, old, new)
+    (tmp_path / "channel.yaml").write_text(head + "\n  smoke:" + smoke + "\n  demo:" + tail)
     cfg = tmp_path / "config.yaml"
     # every other scene off (the campaign merges into config/config.yaml, where all are on)
     cfg.write_text(f"rung: smoke\nresults_dir: {results}\nscenes:\n" + scenes_off(keep=("channel",))
@@ -147,9 +163,13 @@ def test_snakemake_marks_nothing_complete_after_a_failure(tmp_path, root, replac
     dump = case / "run" / "dump_001.bin"
     with open(dump, "r+b") as f:
         f.truncate(dump.stat().st_size // 2)
-    out = subprocess.run(base, capture_output=True, text=True, timeout=600)
+    # the scene's table (and its checksum file), downstream of the failing analysis; `all` would add
+    # the jobs that do not depend on the case (the committed record's report pages, ...), which
+    # tell nothing about the failure
+    table = results / "channel" / "smoke" / "table.csv"
+    out = subprocess.run(base + [str(table), f"{table}.sha256"], capture_output=True, text=True, timeout=600)
     assert out.returncode != 0
     assert not (case / "analysis" / "scalars.json").exists()
-    assert not (results / "channel" / "smoke" / "table.csv").exists()
+    assert not table.exists()
     log = (case / "logs" / "analyse.log").read_text()
     assert "dump_001.bin" in log and "frame" in log

@@ -123,3 +123,26 @@ def test_a_file_target_under_the_ladders_names_one_of_their_rungs_and_cases():
         check("results/ladders/heap/base/heap/validation/mixture~bi1-2/feed_rate~0.01/params.json")
     with pytest.raises(ConfigError, match="scene silo has no ladder: allowed heap"):
         check("results/ladders/silo/base/silo/validation/R~6/params.json")
+
+
+def test_a_rung_renders_at_its_ladders_rung_whatever_the_campaigns(tmp_path):
+    """Before: the render rule took the campaign's rung, so `snakemake ladder_chute` beside the default campaign
+    (rung demo) wrote demo decks (H = 20 d, k_n 2e4) into the ladder's validation case directories. Now a
+    rung's case renders at its ladder's rung: the same params.json as granflow.deck.render_case writes."""
+    from granflow.deck import render_case
+
+    ladder = load_ladder(ROOT / "config" / "ladders" / "chute.yaml")
+    assert ladder["rung"] == "validation"
+    setup = rung_setups(ladder, Path("results"), ROOT)["base"]
+    case = rung_case_dirs(ladder, setup)[0]
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    done = subprocess.run([str(SNAKEMAKE), "--cores", "1", "-s", str(ROOT / "Snakefile"), "--directory",
+                           str(tmp_path), f"{case}/params.json"], capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr + done.stdout
+    record = json.loads((tmp_path / case / "params.json").read_text())
+    assert record["rung"] == "validation" and record["rung_knobs"]["H"] == 30.0
+    from granflow import registry
+
+    expected = render_case(setup["scenes"]["chute"]["scene"], "validation", tmp_path / "direct",
+                           registry.get("chute").case_from_dir(case.split("/validation/", 1)[1]))
+    assert record == json.loads(json.dumps(expected))

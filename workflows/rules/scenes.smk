@@ -78,12 +78,18 @@ def figure_caption(wildcards):
     return SCENES[wildcards.scene].figure_caption(wildcards.figure)
 
 
+def case_rung(wildcards):
+    """The scene rung of the case's set (the campaign's, or a ladder rung's own: a ladder at rung validation
+    run beside a demo campaign renders validation decks)."""
+    return SETUPS[(wildcards.prefix, wildcards.scene)]["rung"]
+
+
 rule render:
     output:
         params=CASE + "/params.json",
     params:
         scene=scene_json,
-        rung=RUNG,
+        rung=case_rung,
     benchmark:
         CASE + "/benchmarks/render.tsv"
     log:

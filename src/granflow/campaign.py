@@ -8,7 +8,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Iterable
 
-from .config import apply_overrides, load_yaml, validate_campaign_scenes
+from .config import apply_overrides, load_yaml
+from .scene_files import validate_campaign_scenes
 from .cost import cost_studies
 
 

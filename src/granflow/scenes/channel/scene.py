@@ -9,7 +9,7 @@ import pandas as pd
 
 import granflow.scenes.channel.figures as figures
 import granflow.scenes.channel.figures_plug as figures_plug
-from granflow.config import require
+from granflow.schema import require
 from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, Stage, SweepAxis
 
 from .parameters import channel_parameters

@@ -6,7 +6,8 @@ import math
 from pathlib import Path
 
 import granflow.scenes.heap.figures as figures
-from granflow.config import ConfigError, require
+from granflow.config import ConfigError
+from granflow.schema import require
 from granflow.preflight import PreflightError
 from granflow.registry import FigureSpec, Knob, Scene, SnapshotView, Stage, SweepAxis
 

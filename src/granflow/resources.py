@@ -555,6 +555,27 @@ def check_size(name: str, scene: dict, rung: str, case: dict | None, limits: dic
     return est
 
 
+def check_sweep_sizes(name: str, scene: dict, rung: str, points: list[dict], limits: dict | None,
+                      source: str) -> list[Estimate]:
+    """Every sweep point of scene ``name`` at ``rung`` within the size limits (:func:`check_size`);
+    returns the points' estimates."""
+    estimates = []
+    for point in points:
+        what = ", ".join(f"{k} = {v}" for k, v in point.items())
+        estimates.append(check_size(name, scene, rung, point, limits, source, f"scenes.{name} case {what} (rung {rung})"))
+    return estimates
+
+
+def check_campaign_limits(campaign: dict, points: dict[str, list[dict]], source: str) -> float:
+    """Every sweep point of a campaign's scenes (``points``, from :func:`granflow.scene_files.check_scenes`)
+    within the size limits, all together within ``max_cpu_hours`` (the cost study's runs, a target of their
+    own, are checked one by one, by :func:`granflow.cost.cost_studies`). Returns the total CPU-hours."""
+    rung = campaign["rung"]
+    estimates = {name: check_sweep_sizes(name, campaign["scenes"][name]["scene"], rung, pts, campaign, source)
+                 for name, pts in points.items()}
+    return check_campaign_cpu_hours(estimates, rung, campaign, source)
+
+
 def check_campaign_cpu_hours(estimates: dict[str, list], rung: str, limits: dict | None, source: str) -> float:
     """Refuse a campaign whose cases (``{scene: [Estimate, ...]}``, from :func:`check_size`)
     together are estimated above ``max_cpu_hours``; return the total CPU-hours."""
@@ -574,5 +595,5 @@ def check_campaign_cpu_hours(estimates: dict[str, list], rung: str, limits: dict
 __all__ = ["Stage", "Workload", "Rate", "Calibration", "Estimate", "calibrate", "measured_runs", "estimate",
            "suggested_ranks", "simulate_resources", "pair_factor", "case_state",
            "plan_campaign", "plan_totals", "format_plan", "REFERENCE_RATE", "PARTICLES_PER_RANK", "DEFAULT_MAX_RANKS",
-           "DEFAULT_MAX_PARTICLES", "default_max_cpu_hours",
-           "LIMIT_KEYS", "check_limits", "size_limits", "check_size", "check_campaign_cpu_hours"]
+           "DEFAULT_MAX_PARTICLES", "default_max_cpu_hours", "LIMIT_KEYS", "check_limits", "size_limits",
+           "check_size", "check_sweep_sizes", "check_campaign_limits", "check_campaign_cpu_hours"]

@@ -2,21 +2,21 @@
 by the scene's own checks, its rungs and its sweeps.
 
 :func:`load_scene` reads, overrides and validates one scene file (:func:`validate_scene`);
-:func:`validate_campaign_scenes` does so for every enabled scene of a campaign and checks each
-sweep point (:func:`check_scene_sweep` checks one scene's sweep alone, as a ladder's rung).
+:func:`check_scenes` does so for every enabled scene of a campaign and checks each sweep point
+by its scene; the points' sizes are the limits' (:mod:`granflow.resources`). :func:`check_scene_sweep`
+checks one scene's sweep alone, sizes included, as a ladder's rung.
 """
 from __future__ import annotations
 
-import copy
 import math
 from pathlib import Path
 from typing import Iterable
 
 from . import registry
 from .config import apply_overrides
-from .resources import check_campaign_cpu_hours, check_size
+from .resources import check_campaign_cpu_hours, check_sweep_sizes
 from .scene_hooks import REPLICATE
-from .schema import Validator, check_results_dir, format_error, load_schema, require, validate
+from .schema import Validator, format_error, load_schema, require, validate
 from .yamlio import ConfigError, load_yaml
 
 RUNGS = ("smoke", "demo", "study", "paper", "validation")
@@ -51,21 +51,18 @@ def load_scene(path: str | Path, overrides: Iterable[str] = ()) -> dict:
     return validate_scene(data, source=str(path))
 
 
-def validate_campaign_scenes(data: dict, root: Path, source: str = "config") -> dict:
-    """Validate a campaign dict's scenes (the whole campaign: :func:`granflow.campaign.validate_campaign`).
+def check_scenes(data: dict, root: Path, source: str = "config") -> dict[str, list[dict]]:
+    """Resolve and check each scene of a campaign whose own keys are checked
+    (:func:`granflow.schema.check_campaign_keys`).
 
-    Scene file paths are relative to ``root``. Every sweep point is checked by its
-    scene (schema bounds of the swept key, then the scene's own feasibility checks) and
-    against the size limits (:func:`check_size`), and all points together against
-    ``max_cpu_hours`` (:func:`check_campaign_cpu_hours`; the cost study's runs, a target of
-    their own, are checked one by one only). Returns a copy with each enabled scene's
-    validated content under ``scenes.<name>.scene``.
+    Scene file paths are relative to ``root``. Each enabled scene's file is loaded and validated
+    (:func:`load_scene`) and put under ``scenes.<name>.scene`` of ``data``; every sweep point is
+    checked by its scene (schema bounds of the swept key, then the scene's own feasibility checks).
+    Returns the sweep points of each enabled scene, for the size limits
+    (:func:`granflow.resources.check_campaign_limits`).
     """
-    data = copy.deepcopy(data)
     path = source
-    validate(data, "config", source=source)
-    check_results_dir(data.get("results_dir", "results"), root, source)
-    estimates = {}
+    points = {}
     for name, sc in data.get("scenes", {}).items():
         if name in registry.refused() and sc.get("enabled", True):  # a disabled one is not needed
             raise registry.refusal(name, f"{path}: scenes.{name} is enabled, but the scene is refused: "
@@ -84,10 +81,9 @@ def validate_campaign_scenes(data: dict, root: Path, source: str = "config") -> 
         rung = data["rung"]
         require(rung in scene["rungs"],
                f"{path}: rung = {rung!r} is not defined in {scene_path}: allowed {', '.join(scene['rungs'])}")
-        estimates[name] = _check_sweep(name, sc.get("sweep") or {}, scene, rung, path, data)
+        points[name] = _check_sweep(name, sc.get("sweep") or {}, scene, rung, path)
         sc["scene"] = scene
-    check_campaign_cpu_hours(estimates, data["rung"], data, path)
-    return data
+    return points
 
 
 def check_scene_sweep(name: str, scene: dict, sweep: dict, rung: str, source: str, limits: dict | None = None) -> float:
@@ -96,13 +92,14 @@ def check_scene_sweep(name: str, scene: dict, sweep: dict, rung: str, source: st
     within ``max_cpu_hours`` of ``limits``); returns the points' CPU-hours. A ladder's rung
     (:mod:`granflow.ladder`) is checked so, its scene changed in memory."""
     require(rung in scene["rungs"], f"{source}: rung = {rung!r} is not defined: allowed {', '.join(scene['rungs'])}")
-    estimates = {name: _check_sweep(name, sweep, scene, rung, source, limits)}
+    points = _check_sweep(name, sweep, scene, rung, source)
+    estimates = {name: check_sweep_sizes(name, scene, rung, points, limits, source)}
     return check_campaign_cpu_hours(estimates, rung, limits, source)
 
 
-def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str, limits: dict | None = None) -> list:
-    """Every value of the sweep within the scene schema's bounds of its case key, every point feasible
-    and within the size limits (:func:`check_size`); returns the points' estimates."""
+def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str) -> list[dict]:
+    """Every value of the sweep within the scene schema's bounds of its case key and every point
+    feasible (the scene's :meth:`~granflow.registry.Scene.check_case`); returns the points."""
     sc = registry.get(name)
     case_schema = load_schema(name)["properties"]["case"]["properties"]
     # the scene's axes, and the seed of its replicates (REPLICATE) where its case has one
@@ -133,12 +130,10 @@ def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str, limi
                 require(math.isclose(back, float(value), rel_tol=1e-12, abs_tol=1e-300),
                         f"{path}: scenes.{name}.sweep.{axis.key} = {value!r} has more digits than its result "
                         f"directory {label} keeps (it would run as {back:g}): allowed at most 6 significant digits")
-    estimates = []
-    for point in sc.sweep_points(scene, sweep, rung):
+    points = list(sc.sweep_points(scene, sweep, rung))
+    for point in points:
         sc.check_case(scene, rung, point, path)
-        what = ", ".join(f"{k} = {v}" for k, v in point.items())
-        estimates.append(check_size(name, scene, rung, point, limits, path, f"scenes.{name} case {what} (rung {rung})"))
-    return estimates
+    return points
 
 
 def check_rung(scene: dict, rung: str, source: str = "--rung") -> dict:

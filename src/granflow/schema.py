@@ -4,7 +4,7 @@ Two kinds of file are validated against JSON schemas in ``config/schema``: the c
 (``config/config.yaml``) and the scene files (``config/scenes/<scene>.yaml``). Every refusal is a
 :class:`~granflow.yamlio.ConfigError` whose message names the dotted key, the offending value and
 the allowed range (:func:`format_error`), so a user can fix the file without reading the schema.
-A campaign's ``results_dir`` is checked here too (:func:`check_results_dir`).
+A campaign's own keys are checked here (:func:`check_campaign_keys`), its ``results_dir`` with them.
 """
 from __future__ import annotations
 
@@ -123,6 +123,15 @@ def require(cond: bool, msg: str) -> None:
     """Refuse with ``msg`` (a :class:`ConfigError` naming key, value and allowed range) unless ``cond``."""
     if not cond:
         raise ConfigError(msg)
+
+
+def check_campaign_keys(data: dict, root: Path, source: str = "config") -> dict:
+    """The campaign's own keys: a copy of ``data`` validated against the campaign schema, its
+    ``results_dir`` checked (:func:`check_results_dir`, relative to ``root``). Returns the copy."""
+    data = copy.deepcopy(data)
+    validate(data, "config", source=source)
+    check_results_dir(data.get("results_dir", "results"), root, source)
+    return data
 
 
 def check_results_dir(value: str, root: Path, source: str = "config") -> None:

@@ -21,7 +21,7 @@ BIN = Path(sys.executable).parent
 
 
 def throughput(rung: str, np_: int, t_flow: float) -> dict:
-    from granflow.config import load_scene
+    from granflow.scene_files import load_scene
     from granflow.deck import render_case
     from granflow.runner import CaseRunner, performance
 

@@ -28,7 +28,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from granflow.config import load_scene  # noqa: E402
+from granflow.scene_files import load_scene  # noqa: E402
 from granflow.contact import sphere_mass  # noqa: E402
 from granflow.deck import environment, scene_parameters  # noqa: E402
 

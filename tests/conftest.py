@@ -143,21 +143,21 @@ def lmp() -> str:
 
 @pytest.fixture(scope="session")
 def channel_scene():
-    from granflow.config import load_scene
+    from granflow.scene_files import load_scene
 
     return load_scene(ROOT / "config" / "scenes" / "channel.yaml")
 
 
 @pytest.fixture(scope="session")
 def heap_scene():
-    from granflow.config import load_scene
+    from granflow.scene_files import load_scene
 
     return load_scene(ROOT / "config" / "scenes" / "heap.yaml")
 
 
 @pytest.fixture(scope="session")
 def silo_scene():
-    from granflow.config import load_scene
+    from granflow.scene_files import load_scene
 
     return load_scene(ROOT / "config" / "scenes" / "silo.yaml")
 

@@ -53,8 +53,10 @@ from postproc.safe_write import OutputWriteError
 
 from . import one_scene, registry
 from .campaign import load_campaign
-from .config import (LIMIT_KEYS, PROJECT_ROOT, ConfigError, check_limits, check_rung, check_size, load_scene,
-                     load_yaml)
+from .config import ConfigError, load_yaml
+from .resources import LIMIT_KEYS, check_limits, check_size
+from .scene_files import check_rung, load_scene
+from .schema import PROJECT_ROOT
 from .preflight import PreflightError, check_ranks, read_record
 
 #: exit codes: a user's mistake (bad input, refused before anything runs) and a run that failed
@@ -107,7 +109,7 @@ def _limits(args) -> dict:
 def _check_case(scene: dict, rung: str, limits: dict, source: str) -> None:
     """What ``granflow render`` checks before it writes anything, also run by ``check-config`` on a
     scene file: the rung exists, and the case (the file's ``case:``) fits the limits, its geometry
-    and its time step (:func:`granflow.config.check_size`, which derives the deck's parameters)."""
+    and its time step (:func:`granflow.resources.check_size`, which derives the deck's parameters)."""
     check_rung(scene, rung)
     check_size(scene["scene"], scene, rung, None, limits, source, f"{scene['scene']} at rung {rung}")
 

@@ -23,7 +23,9 @@ import math
 from pathlib import Path
 
 from . import registry
-from .config import ConfigError, check_size, load_scene, validate_scene
+from .config import ConfigError
+from .resources import check_size
+from .scene_files import load_scene, validate_scene
 
 KNOBS = ("dt_fraction", "stiffness", "size", "t_average", "bin_width")
 POST_KNOBS = ("t_average", "bin_width")

@@ -18,7 +18,7 @@ import jinja2
 from postproc.safe_write import write_file, write_text
 
 from . import registry
-from .config import PROJECT_ROOT
+from .schema import PROJECT_ROOT
 from .contact import ContactModel
 from .deck_guard import DeckError, check_context, check_deck, check_name, template_commands
 from .preflight import PreflightError

@@ -32,7 +32,9 @@ import numpy as np
 import pandas as pd
 
 from granflow import registry
-from granflow.config import PROJECT_ROOT, ConfigError, check_scene_sweep, load_scene, load_yaml
+from granflow.config import ConfigError, load_yaml
+from granflow.scene_files import check_scene_sweep, load_scene
+from granflow.schema import PROJECT_ROOT
 from granflow.validation import case_summary, format_with_errors, scene_validation
 from granflow.verdicts import verdict
 

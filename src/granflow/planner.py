@@ -29,7 +29,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .config import PROJECT_ROOT, ConfigError
+from .config import ConfigError
+from .schema import PROJECT_ROOT
 from .ladder import LADDER_DIR, load_ladder, series_fit
 from .resources import PARTICLES_PER_RANK, parallel_efficiency, suggested_ranks
 

@@ -22,7 +22,7 @@ prices a workload:
   per-particle term, times :data:`MEMORY_MARGIN`.
 
 The limits every command checks before building anything
-(:func:`granflow.config.check_size`) are defined here too: :data:`DEFAULT_MAX_PARTICLES`
+(:func:`check_size`, :func:`check_campaign_cpu_hours`) are defined here too: :data:`DEFAULT_MAX_PARTICLES`
 per case, this machine's memory, and :func:`default_max_cpu_hours` (a week of this
 machine's cores) per case and for a campaign's cases together, priced by :func:`estimate`
 at the reference rate.
@@ -44,6 +44,8 @@ from pathlib import Path
 
 from . import registry
 from .registry import Stage, Workload
+from .schema import Validator, format_error, load_schema, require
+from .yamlio import ConfigError
 
 # ----------------------------------------------------------------- measured facts
 #: atom-steps per CPU-second of ``gran/hooke/history`` when no run of the scene was measured:
@@ -464,7 +466,134 @@ def format_plan(plan: dict) -> str:
     return "\n".join(lines)
 
 
+# ------------------------------------------------------------------------------ limits
+#: the campaign keys that bound one case (and the campaign) before anything is built; the CLI's
+#: ``--max-particles``, ``--memory-mb`` and ``--max-cpu-hours`` set them, Snakemake's ``--config KEY=V``
+LIMIT_KEYS = ("max_particles", "memory_mb", "max_cpu_hours")
+
+#: how to raise each limit, for the refusals
+_RAISE = {key: (f"raise it with --{key.replace('_', '-')} {arg} (granflow check-config, plan, render), "
+                f"snakemake --config {key}={arg}, or {key} in the campaign file")
+          for key, arg in (("max_particles", "N"), ("memory_mb", "MB"), ("max_cpu_hours", "H"))}
+
+
+def check_limits(limits: dict, source: str = "command line") -> dict:
+    """Refuse limits given on the command line without a campaign file (``granflow render``,
+    ``check-config`` on a scene file) that the campaign schema would refuse, naming the option
+    (``--max-cpu-hours``): the same bounds as in a campaign file. Returns ``limits``."""
+    props = load_schema("config")["properties"]
+    option = {key: "--" + key.replace("_", "-") for key in LIMIT_KEYS}
+    schema = {"type": "object", "properties": {option[k]: props[k] for k in LIMIT_KEYS}}
+    given = {option.get(k, k): v for k, v in limits.items()}
+    for err in sorted(Validator(schema).iter_errors(given), key=lambda e: list(map(str, e.absolute_path))):
+        raise ConfigError(format_error(err, source))
+    return limits
+
+
+def size_limits(limits: dict | None = None) -> tuple[int, int, float]:
+    """``(max_particles, memory budget in MB, max_cpu_hours)`` of one case from ``limits`` (the
+    campaign dict, whose ``max_particles``/``memory_mb``/``max_cpu_hours`` the CLI's
+    ``--max-particles``/``--memory-mb``/``--max-cpu-hours`` set), else 2 million particles, this
+    machine's memory and a week of this machine's cores
+    (:func:`default_max_cpu_hours`)."""
+    limits = limits or {}
+    max_particles = int(limits.get("max_particles") or DEFAULT_MAX_PARTICLES)
+    memory = int(limits.get("memory_mb") or machine_memory_mb() or 0)
+    cpu_hours = float(limits.get("max_cpu_hours") or default_max_cpu_hours())
+    return max_particles, memory, cpu_hours
+
+
+def _cpu_hour_limit_text(limits: dict | None) -> str:
+    """Where the CPU-hour limit comes from, for messages."""
+    if (limits or {}).get("max_cpu_hours"):
+        return f"max_cpu_hours = {limits['max_cpu_hours']:g}"
+    return default_max_cpu_hours_text()
+
+
+def _limit_hours(h: float) -> str:
+    return f"{h:,.0f}" if h >= 100 else f"{h:.3g}"
+
+
+def check_size(name: str, scene: dict, rung: str, case: dict | None, limits: dict | None,
+               source: str, label: str) -> Estimate:
+    """Refuse a case over the size limits before anything is built; return its estimate.
+
+    ``label`` names the case in the message (e.g. ``scenes.silo.sweep point R = 6``). In order:
+    the particles, the scene's :meth:`~granflow.registry.Scene.particle_count` (a formula, no
+    arrays; it also refuses a geometry that does not fit); the memory,
+    :func:`memory_mb`; then the deck's parameters are derived (their preflight:
+    time step, feasibility) and the CPU-hours priced by :func:`estimate` from
+    the case's workload at the reference rate, as ``granflow plan`` prices a scene without
+    measured runs (a fixed rate, so whether a config passes does not change as runs finish).
+    Returns that :class:`Estimate` (``particles``, ``cpu_hours``, ...).
+    """
+    sc = registry.get(name)
+    max_particles, budget, max_cpu_hours = size_limits(limits)
+    try:
+        n = sc.particle_count(scene, rung, case)
+    except ValueError as exc:  # PreflightError (time step, geometry) or a scene's own refusal
+        raise ConfigError(f"{source}: {label} is not allowed: {exc}") from None
+    mem = memory_mb(n)
+    require(n <= max_particles,
+            f"{source}: {label} is too large: estimated {n:,} particles (about {mem / 1024:.3g} GB of memory): "
+            f"allowed at most {max_particles:,} particles; {_RAISE['max_particles']}")
+    try:
+        est = estimate(sc.workload(sc.parameters(scene, rung, case)[1]["record"]))
+    except ValueError as exc:  # the deck's preflight: time step, feasibility
+        raise ConfigError(f"{source}: {label} is not allowed: {exc}") from None
+    if budget and mem > budget:
+        raise ConfigError(
+            f"{source}: {label} is too large: estimated {n:,} particles, {mem:,} MB of memory and "
+            f"{est.cpu_hours:.3g} CPU-hours at {est.rate / 1e6:.3g} Matom-step per CPU-second: allowed at most "
+            f"{budget:,} MB (this machine's memory unless --memory-mb, snakemake --config memory_mb=MB or memory_mb in the "
+            f"campaign file says otherwise)")
+    require(est.cpu_hours <= max_cpu_hours,
+            f"{source}: {label} is too large: estimated {_limit_hours(est.cpu_hours)} CPU-hours ({est.particles:,} particles, "
+            f"{est.atom_steps:.3g} atom-steps at {est.rate / 1e6:.3g} Matom-step per CPU-second, the reference rate "
+            f"for its pair style that granflow plan uses without measured runs): allowed at most {_limit_hours(max_cpu_hours)} CPU-hours "
+            f"({_cpu_hour_limit_text(limits)}); {_RAISE['max_cpu_hours']}")
+    return est
+
+
+def check_sweep_sizes(name: str, scene: dict, rung: str, points: list[dict], limits: dict | None,
+                      source: str) -> list[Estimate]:
+    """Every sweep point of scene ``name`` at ``rung`` within the size limits (:func:`check_size`);
+    returns the points' estimates."""
+    estimates = []
+    for point in points:
+        what = ", ".join(f"{k} = {v}" for k, v in point.items())
+        estimates.append(check_size(name, scene, rung, point, limits, source, f"scenes.{name} case {what} (rung {rung})"))
+    return estimates
+
+
+def check_campaign_limits(campaign: dict, points: dict[str, list[dict]], source: str) -> float:
+    """Every sweep point of a campaign's scenes (``points``, from :func:`granflow.scene_files.check_scenes`)
+    within the size limits, all together within ``max_cpu_hours`` (the cost study's runs, a target of their
+    own, are checked one by one, by :func:`granflow.cost.cost_studies`). Returns the total CPU-hours."""
+    rung = campaign["rung"]
+    estimates = {name: check_sweep_sizes(name, campaign["scenes"][name]["scene"], rung, pts, campaign, source)
+                 for name, pts in points.items()}
+    return check_campaign_cpu_hours(estimates, rung, campaign, source)
+
+
+def check_campaign_cpu_hours(estimates: dict[str, list], rung: str, limits: dict | None, source: str) -> float:
+    """Refuse a campaign whose cases (``{scene: [Estimate, ...]}``, from :func:`check_size`)
+    together are estimated above ``max_cpu_hours``; return the total CPU-hours."""
+    _, _, max_cpu_hours = size_limits(limits)
+    per_scene = {name: sum(e.cpu_hours for e in ests) for name, ests in estimates.items()}
+    total = sum(per_scene.values())
+    cases = sum(len(ests) for ests in estimates.values())
+    parts = ", ".join(f"{name} {_limit_hours(h)}" for name, h in sorted(per_scene.items(), key=lambda kv: -kv[1]))
+    require(total <= max_cpu_hours,
+            f"{source}: the campaign at rung {rung} is too large: its {cases} cases are estimated at "
+            f"{_limit_hours(total)} CPU-hours together ({parts}; at the reference rate, as granflow plan prices a "
+            f"scene without measured runs): allowed at most {_limit_hours(max_cpu_hours)} CPU-hours "
+            f"({_cpu_hour_limit_text(limits)}); {_RAISE['max_cpu_hours']}")
+    return total
+
+
 __all__ = ["Stage", "Workload", "Rate", "Calibration", "Estimate", "calibrate", "measured_runs", "estimate",
            "suggested_ranks", "simulate_resources", "pair_factor", "case_state",
            "plan_campaign", "plan_totals", "format_plan", "REFERENCE_RATE", "PARTICLES_PER_RANK", "DEFAULT_MAX_RANKS",
-           "DEFAULT_MAX_PARTICLES", "default_max_cpu_hours"]
+           "DEFAULT_MAX_PARTICLES", "default_max_cpu_hours", "LIMIT_KEYS", "check_limits", "size_limits",
+           "check_size", "check_sweep_sizes", "check_campaign_limits", "check_campaign_cpu_hours"]

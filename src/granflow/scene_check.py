@@ -21,7 +21,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import registry
-from .config import Validator, check_rung, load_yaml, validate_scene
+from .config import load_yaml
+from .scene_files import check_rung, validate_scene
+from .schema import Validator
 from .deck import STAGES, render_case
 from .yamlio import ConfigError
 
@@ -134,7 +136,7 @@ def _scene_file(declared: registry.Scene, name: str, config_dir: Path, found: li
 def _render(declared: registry.Scene, scene: dict) -> list[Finding]:
     """Whether the decks render, into a temporary folder removed afterwards: at the smoke rung, with
     the scene file's case. A case the scene refuses there (a ``ValueError``: its preflight or its own
-    check, as :func:`granflow.config.check_size` takes it: too large, infeasible at that size) is a
+    check, as :func:`granflow.resources.check_size` takes it: too large, infeasible at that size) is a
     note, and the file's other rungs are tried in turn, as ``granflow check-config`` does; the package
     is broken when no rung renders, when it has no smoke rung, or when rendering fails otherwise."""
     try:

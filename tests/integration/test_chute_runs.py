@@ -9,7 +9,7 @@ import copy
 import pandas as pd
 import pytest
 
-from granflow.config import load_scene
+from granflow.scene_files import load_scene
 from granflow.deck import render_case
 from granflow.runner import run_case
 from granflow.scenes.chute import SCENE

@@ -30,7 +30,8 @@ import numpy as np
 import pytest
 
 from granflow import registry
-from granflow.config import PROJECT_ROOT, load_scene
+from granflow.scene_files import load_scene
+from granflow.schema import PROJECT_ROOT
 from granflow.contact import contact_time, restitution_contact_time, sphere_mass
 from granflow.deck import environment, scene_parameters
 from granflow.preflight import PreflightError

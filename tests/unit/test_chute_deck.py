@@ -5,7 +5,8 @@ import re
 
 import pytest
 
-from granflow.config import ConfigError, load_scene
+from granflow.config import ConfigError
+from granflow.scene_files import load_scene
 from granflow.deck import render_case
 from granflow.preflight import PreflightError
 from granflow.scenes.chute import SCENE

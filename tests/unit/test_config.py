@@ -6,7 +6,8 @@ import pytest
 
 from granflow.campaign import load_campaign
 from granflow.cli import main
-from granflow.config import ConfigError, apply_overrides, load_scene
+from granflow.config import ConfigError, apply_overrides
+from granflow.scene_files import load_scene
 
 
 def refuse(capsys, argv):

@@ -38,10 +38,12 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from granflow import campaign, config, registry
+from granflow import campaign, config, registry, scene_files, schema
 from granflow.campaign import load_campaign
 from granflow.cli import EXIT_BAD_INPUT, main
-from granflow.config import ConfigError, check_size, load_scene, parse_override
+from granflow.config import ConfigError, parse_override
+from granflow.resources import check_size
+from granflow.scene_files import load_scene
 from granflow.cost import POST_KNOBS
 from granflow.deck import scene_parameters
 from granflow.preflight import PreflightError
@@ -249,13 +251,13 @@ def _without_null(spec: dict) -> dict:
 def enumerate_keys() -> tuple[dict, dict]:
     """``({file: [NumericKey]}, {file: (declared numeric leaves, leaves reached)})``."""
     keys, reach = {}, {}
-    schemas = {name: config.load_schema(name) for name in SCENES}
+    schemas = {name: schema.load_schema(name) for name in SCENES}
     for scene in SCENES:
         root = schemas[scene]
         found = list(_leaves(root, root, _yaml_data(CONFIG_DIR / "scenes" / f"{scene}.yaml"), (), "#"))
         keys[scene] = [NumericKey(scene, path, spec, "scene", ptr) for path, spec, ptr in found]
         reach[scene] = (set(numeric_leaf_pointers(root, root)), {ptr for _, _, ptr in found})
-    root = config.load_schema("config")
+    root = schema.load_schema("config")
     found = list(_leaves(root, root, _yaml_data(CAMPAIGN), (), "#"))
     out = []
     for path, spec, ptr in found:
@@ -496,12 +498,12 @@ def parsed_files() -> dict:
 def parse_once(monkeypatch, parsed_files):
     """Parse each scene and campaign file once per module, and share each schema.
 
-    Pure-Python PyYAML takes ~30 ms per scene file and :func:`granflow.config.load_schema`
+    Pure-Python PyYAML takes ~30 ms per scene file and :func:`granflow.schema.load_schema`
     ~3 ms to copy a parsed schema, against ~3 ms for the validation itself. The loaders
     still apply each override to a fresh copy (``apply_overrides``) and run every check;
     they only read a schema. The command-line tests below load everything for real.
     """
-    real_yaml, real_schema = config.load_yaml, config.load_schema
+    real_yaml, real_schema = scene_files.load_yaml, schema.load_schema
 
     def load_yaml(path):
         path = Path(path).resolve()
@@ -514,9 +516,10 @@ def parse_once(monkeypatch, parsed_files):
             parsed_files[name] = real_schema(name)
         return parsed_files[name]
 
-    monkeypatch.setattr(config, "load_yaml", load_yaml)
+    monkeypatch.setattr(scene_files, "load_yaml", load_yaml)
     monkeypatch.setattr(campaign, "load_yaml", load_yaml)
-    monkeypatch.setattr(config, "load_schema", load_schema)
+    monkeypatch.setattr(schema, "load_schema", load_schema)
+    monkeypatch.setattr(scene_files, "load_schema", load_schema)
 
 
 # --------------------------------------------------------------------------- the walk
@@ -784,7 +787,7 @@ def test_cost_post_processing_knobs_meet_their_scene_bounds(scene, knob, file_da
     if scene not in COST_SCENES:
         pytest.skip(f"the default campaign holds no cost study of the {scene} scene")
     target = sc.knobs[knob].keys[0].format(r=file_data["config"]["cost"]["scenes"][scene]["base_rung"])
-    spec = _scene_spec(config.load_schema(scene), target)
+    spec = _scene_spec(schema.load_schema(scene), target)
     value = 10.0 * bounds(spec)[2]
     values = [*file_data["config"]["cost"]["scenes"][scene]["knobs"][knob], value]
     others = [f"scenes.{s}.enabled=false" for s in CAMPAIGN_SCENES if s != scene]

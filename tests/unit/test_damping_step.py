@@ -10,7 +10,8 @@ import yaml
 from numpy.testing import assert_allclose
 
 from granflow import registry
-from granflow.config import PROJECT_ROOT, load_scene
+from granflow.scene_files import load_scene
+from granflow.schema import PROJECT_ROOT
 from granflow.contact import (build_contact_model, contact_time, oscillator, spin_oscillator,
                               verlet_damping_limit)
 from granflow.deck import scene_parameters

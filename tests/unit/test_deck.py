@@ -7,8 +7,8 @@ import re
 import jinja2
 import pytest
 
-from granflow import config, registry
-from granflow.config import PROJECT_ROOT
+from granflow import registry, scene_files
+from granflow.schema import PROJECT_ROOT
 from granflow.deck import STAGES, environment, render_case, template_path
 
 
@@ -84,7 +84,7 @@ def test_every_rung_passes_skiprun(channel_scene, tmp_path, skiprun, rung):
 def test_the_header_names_the_real_template(name, tmp_path):
     """Each deck's header names the template it came from, in the scene's package, by its path in
     the project (it said lammps_inputs/<scene>.lmp.j2, where no template is)."""
-    scene = config.load_scene(PROJECT_ROOT / "config" / "scenes" / f"{name}.yaml")
+    scene = scene_files.load_scene(PROJECT_ROOT / "config" / "scenes" / f"{name}.yaml")
     render_case(scene, "demo", tmp_path)
     for deck in sorted(tmp_path.glob("*.lmp")):
         m = re.search(r"^# Rendered by granflow from (\S+); do not edit by hand,$", deck.read_text(), re.M)

@@ -11,9 +11,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from granflow import config, deck, registry
+from granflow import deck, registry, scene_files, schema
 from granflow.cli import main
-from granflow.config import PROJECT_ROOT, ConfigError
+from granflow.config import ConfigError
+from granflow.schema import PROJECT_ROOT
 from granflow.deck import environment, render_case
 from granflow.deck_guard import (FORBIDDEN, DeckError, check_deck, check_name, commands, logical_lines,
                                  template_commands)
@@ -39,7 +40,7 @@ def _scene(name: str) -> dict:
 
 @functools.lru_cache(maxsize=None)
 def _loaded(name: str) -> dict:
-    return config.load_scene(PROJECT_ROOT / "config" / "scenes" / f"{name}.yaml")
+    return scene_files.load_scene(PROJECT_ROOT / "config" / "scenes" / f"{name}.yaml")
 
 
 #: a case each rung renders with where the scene file's own case is refused by preflight at that
@@ -80,7 +81,7 @@ def test_the_schema_refuses_a_hostile_rung_name(name):
     scene = _scene(name)
     for suffix in SUFFIXES:
         with pytest.raises(ConfigError, match="rungs"):
-            config.validate_scene(_with_rung(scene, "demo", "demo" + suffix), "scene")
+            scene_files.validate_scene(_with_rung(scene, "demo", "demo" + suffix), "scene")
 
 
 @pytest.mark.parametrize("value", ["results\n", "results\r", "results\n\n", "results\u2028"])
@@ -88,7 +89,7 @@ def test_results_dir_with_a_newline_is_refused(value):
     data = yaml.safe_load((PROJECT_ROOT / "config" / "config.yaml").read_text())
     data["results_dir"] = value
     with pytest.raises(ConfigError, match=r"results_dir = .*does not match"):
-        config.validate(data, "config")
+        schema.validate(data, "config")
 
 
 def test_a_heap_mixture_named_with_a_newline_is_refused():
@@ -97,7 +98,7 @@ def test_a_heap_mixture_named_with_a_newline_is_refused():
     mixtures["evil\n"] = mixtures[scene["case"]["mixture"]]
     scene["case"]["mixture"] = "evil\n"
     with pytest.raises(ConfigError, match=r"case.mixture = 'evil\\n'.*does not match"):
-        config.validate_scene(scene, "heap")
+        scene_files.validate_scene(scene, "heap")
 
 
 def test_every_schema_pattern_is_anchored_at_the_very_end():

@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from granflow.config import ConfigError, load_scene
+from granflow.config import ConfigError
+from granflow.scene_files import load_scene
 
 ROOT = Path(__file__).resolve().parents[2]
 spec = importlib.util.spec_from_file_location("ladder_tool", ROOT / "tools" / "ladder.py")

@@ -13,7 +13,8 @@ import pytest
 
 from granflow import registry, scaffold
 from granflow.cli import EXIT_BAD_INPUT, build_parser, main
-from granflow.config import load_yaml, validate_scene
+from granflow.config import load_yaml
+from granflow.scene_files import validate_scene
 from granflow.deck import STAGES, render_case
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -9,7 +9,7 @@ import pytest
 
 from granflow import registry, resources
 from granflow.cli import main
-from granflow.config import load_scene
+from granflow.scene_files import load_scene
 from granflow.deck import render_case
 from granflow.resources import (
     PARTICLES_PER_RANK,

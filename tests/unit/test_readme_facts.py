@@ -27,7 +27,7 @@ import yaml
 
 from granflow import registry
 from granflow.cli import build_parser
-from granflow.config import load_scene
+from granflow.scene_files import load_scene
 from granflow.registry import GENERIC_STATUSES
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -68,7 +68,7 @@ def test_cost_study_size_factor_is_sized_before_it_is_built(capsys, root):
 def test_particle_estimate_equals_the_built_count(root):
     """The cheap estimate is the count the deck holds (silo: gas + rim ring, not built)."""
     from granflow import registry
-    from granflow.config import load_scene
+    from granflow.scene_files import load_scene
 
     for name, rung, case in [("silo", "demo", {"R": 6}), ("channel", "demo", None), ("chute", "smoke", None)]:
         scene = load_scene(root / f"config/scenes/{name}.yaml")

@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from granflow import config, cost, overview, registry, validation
+from granflow import cost, overview, registry, schema, validation
 from granflow.campaign import load_campaign
 from granflow.cli import EXIT_BAD_INPUT, main
 from granflow.config import ConfigError
@@ -100,10 +100,10 @@ def drum(tmp_path, monkeypatch, minimal_scene):
     found = registry.Found({**registry.scenes(), "drum": scene},
                            {"broken": "it lacks " + "; ".join(registry.missing(None, "broken"))})
     monkeypatch.setattr(registry, "_found", lambda: found)
-    monkeypatch.setattr(config, "SCHEMA_DIR", config_dir / "schema")
+    monkeypatch.setattr(schema, "SCHEMA_DIR", config_dir / "schema")
     yield scene
     del sys.modules["drum"]
-    config._schema.cache_clear()  # drum's schema was read from this test's folder
+    schema._schema.cache_clear()  # drum's schema was read from this test's folder
 
 
 def campaign_file(tmp_path, scenes: str, extra: str = "") -> Path:

@@ -7,7 +7,8 @@ import pandas as pd
 import pytest
 
 from granflow.campaign import load_campaign
-from granflow.config import ConfigError, validate_scene
+from granflow.config import ConfigError
+from granflow.scene_files import validate_scene
 from granflow.deck import render_case
 from granflow.preflight import PreflightError
 from granflow.scenes.silo.parameters import discharge_verdict, gas_lattice, hertz_stiffness, rim_ring, species

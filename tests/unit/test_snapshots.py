@@ -9,7 +9,8 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from granflow import registry  # noqa: E402
-from granflow.config import ConfigError, load_scene  # noqa: E402
+from granflow.config import ConfigError  # noqa: E402
+from granflow.scene_files import load_scene  # noqa: E402
 from granflow.deck import render_case  # noqa: E402
 from granflow.registry import SnapshotView  # noqa: E402
 from granflow.snapshots import SnapshotError, compose, images, pick, segment_times  # noqa: E402

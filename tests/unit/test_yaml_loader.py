@@ -12,7 +12,8 @@ from pathlib import Path
 import pytest
 
 from granflow.cli import main
-from granflow.config import load_scene, parse_override
+from granflow.config import parse_override
+from granflow.scene_files import load_scene
 from granflow.yamlio import (
     MAX_DEPTH,
     MAX_DOCUMENT_BYTES,

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from granflow.config import check_rung
+from granflow.scene_files import check_rung
 from granflow.contact import build_contact_model, sphere_mass
 from granflow.deck import (
     contact_law_context,

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from granflow.config import require
 from granflow.registry import Deferred, FigureSpec, Knob, Scene, SnapshotView, Stage, SweepAxis
+from granflow.schema import require
 
 from .parameters import channel_parameters
 

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import math
 
-from granflow.config import ConfigError, check_rung
+from granflow.config import ConfigError
+from granflow.scene_files import check_rung
 from granflow.contact import Contact, build_contact_model, contact_time, sphere_mass
 from granflow.deck import (STRESS_COLUMNS, Param, StepClock, number, contact_law_context, contact_law_params,
                            rain_lattice, record_head, time_step)

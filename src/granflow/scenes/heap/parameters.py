@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 
-from granflow.config import check_rung
+from granflow.scene_files import check_rung
 from granflow.contact import (ContactModel, TypePair, contact_law, contact_model_for_time, per_pair_model,
                               restitution_contacts, sphere_mass)
 from granflow.deck import (Param, StepClock, number, contact_law_context, contact_law_params, record_head,

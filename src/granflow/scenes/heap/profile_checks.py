@@ -171,7 +171,8 @@ def smallest_diameter(case: str) -> float:
     if not m:
         return NAN
     try:
-        from granflow.config import PROJECT_ROOT, load_scene
+        from granflow.scene_files import load_scene
+        from granflow.schema import PROJECT_ROOT
 
         mixtures = load_scene(PROJECT_ROOT / "config" / "scenes" / "heap.yaml")["particles"]["mixtures"]
         return float(min(mixtures[m.group(1)]["diameters"]))

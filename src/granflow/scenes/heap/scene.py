@@ -5,9 +5,10 @@ import dataclasses
 import math
 from pathlib import Path
 
-from granflow.config import ConfigError, require
+from granflow.config import ConfigError
 from granflow.preflight import PreflightError
 from granflow.registry import Deferred, FigureSpec, Knob, Scene, SnapshotView, Stage, SweepAxis
+from granflow.schema import require
 
 from .parameters import feed_plan, heap_parameters
 

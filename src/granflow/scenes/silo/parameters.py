@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from granflow.config import check_rung
+from granflow.scene_files import check_rung
 from granflow.contact import (Contact, ContactModel, TypePair, contact_block_model, contact_law, contact_time,
                               damping_for_restitution, per_pair_model, restitution_contacts)
 from granflow.deck import Param, StepClock, number, contact_law_context, contact_law_params, record_head, shared_si_params

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from granflow.config import require
 from granflow.registry import Deferred, FigureSpec, Knob, Scene, SnapshotView, SweepAxis
+from granflow.schema import require
 
 from .parameters import discharge_verdict, gas_count, rim_ring, silo_parameters, species
 
@@ -198,7 +198,8 @@ class SiloScene(Scene):
         """Every check made from the record's profiles alone (:func:`~granflow.scenes.silo.profile_checks.profile_checks`:
         v_c² linear in R, the orifice collapse, the axis pressures, the sizes, the kernel width); the species'
         radii, which the profiles do not list, from ``config/scenes/silo.yaml``."""
-        from granflow.config import PROJECT_ROOT, load_scene
+        from granflow.scene_files import load_scene
+        from granflow.schema import PROJECT_ROOT
 
         from .profile_checks import profile_checks
 

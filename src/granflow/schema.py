@@ -1,0 +1,164 @@
+"""The schemas in ``config/schema`` and the refusals they make, and the campaign's own keys.
+
+Two kinds of file are validated against JSON schemas in ``config/schema``: the campaign
+(``config/config.yaml``) and the scene files (``config/scenes/<scene>.yaml``). Every refusal is a
+:class:`~granflow.yamlio.ConfigError` whose message names the dotted key, the offending value and
+the allowed range (:func:`format_error`), so a user can fix the file without reading the schema.
+A campaign's own keys are checked here (:func:`check_campaign_keys`), its ``results_dir`` with them.
+"""
+from __future__ import annotations
+
+import copy
+import functools
+import math
+import os
+from pathlib import Path
+
+import jsonschema
+
+from .yamlio import ConfigError, dotted_path, load_yaml, refuse_templating
+
+#: Root of the project (``src/granflow/schema.py`` -> project root).
+PROJECT_ROOT = Path(__file__).resolve().parents[2]
+SCHEMA_DIR = PROJECT_ROOT / "config" / "schema"
+
+
+def load_schema(name: str) -> dict:
+    """Schema ``config/schema/<name>.schema.yaml`` as a dict (a copy: parsed once per process)."""
+    return copy.deepcopy(_schema(name))
+
+
+@functools.lru_cache(maxsize=None)
+def _schema(name: str) -> dict:
+    return load_yaml(SCHEMA_DIR / f"{name}.schema.yaml")
+
+
+def _finite_number(checker, instance) -> bool:
+    """JSON Schema's ``number``, finite only: NaN and infinities are not numbers a case can use
+    (an int is always finite; its range check refuses one too large)."""
+    return (jsonschema.Draft202012Validator.TYPE_CHECKER.is_type(instance, "number")
+            and not _nonfinite(instance))
+
+
+def _finite_integer(checker, instance) -> bool:
+    return (jsonschema.Draft202012Validator.TYPE_CHECKER.is_type(instance, "integer")
+            and not _nonfinite(instance))
+
+
+#: Draft 2020-12 whose ``number`` and ``integer`` refuse NaN and +-inf (YAML's .nan, .inf, or --set x=.nan)
+Validator = jsonschema.validators.extend(
+    jsonschema.Draft202012Validator,
+    type_checker=jsonschema.Draft202012Validator.TYPE_CHECKER.redefine("number", _finite_number)
+    .redefine("integer", _finite_integer))
+
+
+def _nonfinite(value) -> bool:
+    return isinstance(value, float) and not math.isfinite(value)
+
+
+
+
+def _allowed(schema: dict) -> str:
+    """Human description of what ``schema`` allows."""
+    bits = []
+    if "enum" in schema:
+        bits.append("one of " + ", ".join(repr(v) for v in schema["enum"]))
+    if "const" in schema:
+        bits.append(f"exactly {schema['const']!r}")
+    lo = schema.get("minimum")
+    xlo = schema.get("exclusiveMinimum")
+    hi = schema.get("maximum")
+    xhi = schema.get("exclusiveMaximum")
+    if any(v is not None for v in (lo, xlo, hi, xhi)):
+        left = f"{lo} <= " if lo is not None else (f"{xlo} < " if xlo is not None else "")
+        right = f" <= {hi}" if hi is not None else (f" < {xhi}" if xhi is not None else "")
+        bits.append(f"{left}value{right}")
+    if "type" in schema and not bits:
+        t = schema["type"]
+        bits.append("type " + (" or ".join(t) if isinstance(t, list) else t))
+    if "pattern" in schema:
+        bits.append(f"matching {schema['pattern']}")
+    return "; ".join(bits) or "see the schema"
+
+
+def format_error(err: jsonschema.ValidationError, source: str) -> str:
+    """One schema error as a refusal: ``source``, the dotted key, the value and what is allowed."""
+    key = dotted_path(err.absolute_path)
+    desc = err.schema.get("description") if isinstance(err.schema, dict) else None
+    tail = f" ({desc})" if desc else ""
+    if err.validator == "additionalProperties":
+        allowed = sorted(err.schema.get("properties", {}))
+        extra = sorted(set(err.instance) - set(allowed))
+        where = f"{key}." if err.absolute_path else ""
+        return (f"{source}: unknown key {where}{extra[0]!s} (value {err.instance[extra[0]]!r}); "
+                f"allowed keys here: {', '.join(allowed)}")
+    if err.validator == "required":
+        return f"{source}: {key}: {err.message}"
+    if err.validator in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum", "enum", "const"):
+        return f"{source}: {key} = {err.instance!r} is not allowed: allowed {_allowed(err.schema)}{tail}"
+    if err.validator == "type" and _nonfinite(err.instance):
+        allowed = _allowed(err.schema)
+        allowed = "a finite number" if allowed.startswith("type ") else f"a finite number, {allowed}"
+        return f"{source}: {key} = {err.instance!r} is not a finite number: allowed {allowed}{tail}"
+    if err.validator == "type":
+        return f"{source}: {key} = {err.instance!r} has the wrong type: allowed {_allowed(err.schema)}{tail}"
+    return f"{source}: {key} = {err.instance!r}: {err.message}{tail}"
+
+
+def validate(data: dict, schema_name: str, source: str = "config", schema: dict | None = None) -> None:
+    """Validate ``data`` against a named schema (or ``schema`` itself); raise :class:`ConfigError`
+    listing every problem, one per line."""
+    refuse_templating(data, source)
+    schema = load_schema(schema_name) if schema is None else schema
+    validator = Validator(schema)
+    errors = sorted(validator.iter_errors(data), key=lambda e: (list(map(str, e.absolute_path)), e.validator))
+    # a non-finite number: one message ("not a finite number"), not also its range check's
+    nonfinite = {tuple(e.absolute_path) for e in errors if e.validator == "type" and _nonfinite(e.instance)}
+    errors = [e for e in errors if e.validator == "type" or tuple(e.absolute_path) not in nonfinite]
+    if errors:
+        raise ConfigError("\n".join(format_error(e, source) for e in errors))
+
+
+def require(cond: bool, msg: str) -> None:
+    """Refuse with ``msg`` (a :class:`ConfigError` naming key, value and allowed range) unless ``cond``."""
+    if not cond:
+        raise ConfigError(msg)
+
+
+def check_campaign_keys(data: dict, root: Path, source: str = "config") -> dict:
+    """The campaign's own keys: a copy of ``data`` validated against the campaign schema, its
+    ``results_dir`` checked (:func:`check_results_dir`, relative to ``root``). Returns the copy."""
+    data = copy.deepcopy(data)
+    validate(data, "config", source=source)
+    check_results_dir(data.get("results_dir", "results"), root, source)
+    return data
+
+
+def check_results_dir(value: str, root: Path, source: str = "config") -> None:
+    """Refuse a relative ``results_dir`` that leads out of the project root ``root`` (``..``,
+    ``../x``, ``a/../../b``); an absolute path is the way to write elsewhere. Judged on the
+    path as written, so a ``results`` symlink to a scratch disk stays allowed. A ``results_dir``
+    that is (or lies under) something other than a directory, e.g. a regular file, is refused too."""
+    _check_results_is_a_directory(value, root, source)
+    if Path(value).is_absolute():
+        return
+    norm = os.path.normpath(value)
+    if norm == os.pardir or norm.startswith(os.pardir + os.sep):
+        where = os.path.normpath(os.path.join(Path(root).absolute(), value))
+        raise ConfigError(f"{source}: results_dir = {value!r} resolves to {where}, outside the project root "
+                          f"{Path(root).absolute()}: allowed a relative path that stays inside the project; "
+                          f"give an absolute path to write elsewhere")
+
+
+def _check_results_is_a_directory(value: str, root: Path, source: str) -> None:
+    """Refuse a ``results_dir`` whose nearest existing part (itself, or the parent it would be made
+    in) is not a directory: the workflow could not make its case folders there."""
+    where = Path(value) if Path(value).is_absolute() else Path(root).absolute() / value
+    for part in (where, *where.parents):
+        if part.exists():
+            if not part.is_dir():
+                kind = "a regular file" if part.is_file() else "not a directory"
+                what = "" if part == where else f" (its part {part})"
+                raise ConfigError(f"{source}: results_dir = {value!r}{what} is {kind}: allowed a directory, "
+                                  f"or a path where one can be made")
+            return

@@ -251,6 +251,11 @@ def _rel_error(check) -> float:
     return err / abs(nearest) if nearest else err
 
 
+def case_label(case: dict) -> str:
+    """A case of a rung in words, from its summary's ``case`` (e.g. ``theta_deg 25, seed 6620117``)."""
+    return ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}" for k, v in case["case"].items())
+
+
 def table(ladder: dict, results: Path) -> pd.DataFrame:
     rows = []
     for rung in ladder["rungs"]:
@@ -273,10 +278,15 @@ def table(ladder: dict, results: Path) -> pd.DataFrame:
             rows.append({"rung": rung["name"], "knob": rung["knob"], "cases": len(cases), "cpu_hours": cpu,
                          "state": "ran, not measured: " + "; ".join(ended)})
             continue
+        if ended and state == "run":  # some cases measured, others not: the rung's numbers are the measured ones'
+            lost = "; ".join(f"{case_label(c)} {c['status']}: {str(c['reason']).split(': ERROR')[0]}"
+                             for c in cases if c.get("status") not in ("steady", None))
+            state = f"run ({len(ended)} of {len(cases)} cases not measured: {lost})"
         for c in checks:
             rows.append({"rung": rung["name"], "knob": rung["knob"], "state": state, "quantity": c.quantity,
                          "replicate": bool(rung.get("replicate")),
                          "paper": c.paper, "ours": c.ours, "stat": c.error, "syst": c.syst, "verdict": c.verdict,
+                         "run_to_run": c.run_to_run, "n_replicates": c.n_replicates,
                          "abs_rel_difference": abs(c.difference) if math.isfinite(c.difference) else np.nan,
                          "rel_error": _rel_error(c) if c.paper_range and math.isfinite(c.ours) else np.nan,
                          "paper_lo": min(c.paper_range) if c.paper_range else np.nan,
@@ -458,8 +468,9 @@ def record(ladder: dict, results: Path, out: Path) -> str:
 
 def rejudge(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
     """The committed ladder's rows judged by today's rules without the runs (as tools/rejudge_record.py does
-    for a record): each measured row's verdict from its numbers, one run each (a rung is one setting; its
-    replicate rung is its own row), of its scene's kind (``check_kinds``: a diagnostic gets no verdict)."""
+    for a record): each measured row's verdict from its numbers, of its scene's kind (``check_kinds``: a
+    diagnostic gets no verdict); a row with ``n_replicates`` and ``run_to_run`` (a rung whose cases pooled
+    several seeds) is judged with them, one without as one run (a replicate rung is its own row)."""
     kinds = registry.get(ladder["scene"]).check_kinds
     out = df.copy()
     for i, r in out.iterrows():
@@ -468,7 +479,9 @@ def rejudge(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
         rng = (r["paper_lo"], r["paper_hi"]) if np.isfinite([r["paper_lo"], r["paper_hi"]]).all() else None
         syst = float(r["syst"]) if pd.notna(r["syst"]) else float("nan")
         stat = float(r["stat"]) if pd.notna(r["stat"]) else float("nan")
-        out.at[i, "verdict"] = verdict(float(r["ours"]), stat, rng, syst=syst,
+        rtr = float(r["run_to_run"]) if pd.notna(r.get("run_to_run", np.nan)) else float("nan")
+        n = int(r["n_replicates"]) if pd.notna(r.get("n_replicates", np.nan)) else 1
+        out.at[i, "verdict"] = verdict(float(r["ours"]), stat, rng, syst=syst, run_to_run=rtr, n_replicates=n,
                                        kind=kinds.get(r["quantity"], "comparison"))[0]
     return out
 

@@ -65,7 +65,7 @@ def test_the_extrapolation_finds_the_cheapest_setting_within_p_on_a_known_line()
 
 
 @pytest.mark.parametrize("target, match", [
-    ("drum:u_max:5%", "scene = 'drum' has no committed ladder: allowed channel, heap, silo"),
+    ("drum:u_max:5%", "scene = 'drum' has no committed ladder: allowed channel, chute, heap, silo"),
     ("silo:exponent a:5%", "quantity = 'exponent a' names more than one of the silo ladder's quantities"),
     ("silo:nothing like it:5%", "quantity = 'nothing like it' names none"),
     ("channel:u_max:-5%", "P = '-5%': allowed a positive percentage"),

@@ -25,10 +25,13 @@ def test_below_steady_range_is_not_averaged(channel_scene, tmp_path, run_smoke):
 
 
 def test_guard_stops_a_runaway_with_a_named_reason(channel_scene, tmp_path, run_smoke):
-    # an impossible overlap limit trips the overlap guard on the first check
+    # an impossible overlap limit trips the overlap guard on the first check; on 2 MPI ranks (the suite's
+    # multi-rank run: the halt's reduction over ranks, the decomposition; it stops within seconds, so
+    # its ranks never wait long on a core the other test worker holds)
     scene = copy.deepcopy(channel_scene)
     scene["guards"]["max_overlap"] = 1e-9
-    status = run_smoke(scene, tmp_path, {"phi_mean": 0.60})
+    status = run_smoke(scene, tmp_path, {"phi_mean": 0.60}, nprocs=2)
+    assert status["nprocs"] == 2
     assert status["status"] == "unstable"
     assert "overlap" in status["reason"] and "halt_overlap" in status["reason"]
     assert (tmp_path / "run" / "logs" / "init.log").exists(), "the log of a stopped run is kept"

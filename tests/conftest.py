@@ -267,6 +267,24 @@ def replace_once():
     return _replace_once
 
 
+@pytest.fixture(scope="session")
+def short_channel_file():
+    """``short_channel_file(dest)``: config/scenes/channel.yaml, averaging even an unsteady run, with a shorter
+    smoke rung (4 + 3 time units, 6 frames: a dump to damage, not a long run), written to ``dest``."""
+    def write(dest: Path) -> Path:
+        text = _replace_once((ROOT / "config" / "scenes" / "channel.yaml").read_text(),
+                             "average_unsteady: false", "average_unsteady: true")
+        head, rest = text.split("\n  smoke:", 1)
+        smoke, tail = rest.split("\n  demo:", 1)
+        for old, new in (("t_flow_max: 20.0", "t_flow_max: 4.0"), ("t_segment: 10.0", "t_segment: 4.0"),
+                         ("t_average: 10.0", "t_average: 3.0"), ("dump_interval: 1.0", "dump_interval: 0.5")):
+            smoke = _replace_once(smoke, old, new)
+        Path(dest).write_text(head + "\n  smoke:" + smoke + "\n  demo:" + tail)
+        return Path(dest)
+
+    return write
+
+
 def _check_png(path: Path, min_pixels: tuple[int, int] = (400, 300)):
     """Assert ``path`` is a real PNG image of at least ``min_pixels`` (width, height), not blank.
 

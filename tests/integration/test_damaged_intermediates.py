@@ -26,17 +26,10 @@ def refusal(proc: subprocess.CompletedProcess, path: Path) -> list[str]:
     return [str(BIN / "snakemake")] + words[1:]
 
 
-def test_damaged_scalars_and_status_are_refused_by_name_and_rebuilt(tmp_path, root, scenes_off, replace_once):
+def test_damaged_scalars_and_status_are_refused_by_name_and_rebuilt(tmp_path, root, scenes_off, short_channel_file):
     results = tmp_path / "results"
-    text = replace_once((root / "config" / "scenes" / "channel.yaml").read_text(),
-                        "average_unsteady: false", "average_unsteady: true")
     # a shorter smoke rung (the whole test stays under a minute): 4 + 3 time units, 6 frames
-    head, rest = text.split("\n  smoke:", 1)
-    smoke, tail = rest.split("\n  demo:", 1)
-    for old, new in (("t_flow_max: 20.0", "t_flow_max: 4.0"), ("t_segment: 10.0", "t_segment: 4.0"),
-                     ("t_average: 10.0", "t_average: 3.0"), ("dump_interval: 1.0", "dump_interval: 0.5")):
-        smoke = replace_once(smoke, old, new)
-    (tmp_path / "channel.yaml").write_text(head + "\n  smoke:" + smoke + "\n  demo:" + tail)
+    short_channel_file(tmp_path / "channel.yaml")
     cfg = tmp_path / "config.yaml"
     cfg.write_text(f"rung: smoke\nresults_dir: {results}\nscenes:\n" + scenes_off(keep=("channel",))
                    + "  channel:\n    enabled: true\n"

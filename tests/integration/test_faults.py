@@ -136,19 +136,12 @@ def test_truncated_dump_fails_naming_file_and_frame(finished_two_segment_run, tm
     assert "dump_002.bin" in msg and "frame" in msg and "truncated" in msg
 
 
-def test_snakemake_marks_nothing_complete_after_a_failure(tmp_path, root, replace_once, scenes_off):
+def test_snakemake_marks_nothing_complete_after_a_failure(tmp_path, root, scenes_off, short_channel_file):
     """A damaged dump makes the analysis rule fail; its outputs do not exist afterwards."""
     results = tmp_path / "results"
-    text = replace_once((root / "config" / "scenes" / "channel.yaml").read_text(),
-                        "average_unsteady: false", "average_unsteady: true")
-    # the failure needs a dump, not a long run: a shorter smoke rung (4 + 3 time units, 6 frames;
-    # as tests/integration/test_damaged_intermediates.py) whose one dump is cut in half below
-    head, rest = text.split("\n  smoke:", 1)
-    smoke, tail = rest.split("\n  demo:", 1)
-    for old, new in (("t_flow_max: 20.0", "t_flow_max: 4.0"), ("t_segment: 10.0", "t_segment: 4.0"),
-                     ("t_average: 10.0", "t_average: 3.0"), ("dump_interval: 1.0", "dump_interval: 0.5")):
-        smoke = replace_once(smoke, old, new)
-    (tmp_path / "channel.yaml").write_text(head + "\n  smoke:" + smoke + "\n  demo:" + tail)
+    # the failure needs a dump, not a long run: the shorter smoke rung (as test_damaged_intermediates.py),
+    # whose one dump is cut in half below
+    short_channel_file(tmp_path / "channel.yaml")
     cfg = tmp_path / "config.yaml"
     # every other scene off (the campaign merges into config/config.yaml, where all are on)
     cfg.write_text(f"rung: smoke\nresults_dir: {results}\nscenes:\n" + scenes_off(keep=("channel",))

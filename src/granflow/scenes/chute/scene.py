@@ -126,9 +126,9 @@ class ChuteScene(Scene):
 
     # -- analysis -----------------------------------------------------------------------
     def analyse(self, case_dir: Path):
-        from . import analysis
+        from .analysis import analyse_case
 
-        return analysis.analyse_case(case_dir)
+        return analyse_case(case_dir)
 
     def table(self, rows):
         """One row per angle, and on every row the flowing range the sweep brackets.
@@ -164,17 +164,17 @@ class ChuteScene(Scene):
         """Headline numbers over the first ``t_average`` of the averaging stage (or ``block`` of it)."""
         import json
 
-        from . import analysis
+        from .analysis import case_profile, profile_checks
 
         window = block or (0.0, t_average)
         case_dir = Path(case_dir)
         status = json.loads((case_dir / "run" / "status.json").read_text())
-        got = analysis.case_profile(case_dir, record, status, window)
+        got = case_profile(case_dir, record, status, window)
         if got is None:
             return self.nan_observables(), window
-        checks = analysis.profile_checks(got[0], float(record["parameters"]["theta_deg"]),
-                                         float(record["parameters"]["base_height"]),
-                                         record["rung_knobs"]["bulk_margin"])
+        checks = profile_checks(got[0], float(record["parameters"]["theta_deg"]),
+                                float(record["parameters"]["base_height"]),
+                                record["rung_knobs"]["bulk_margin"])
         checks["stress_ratio_over_tan"] = checks["stress_ratio_error"] + 1.0
         return {key: finite(checks.get(key)) for key, _ in self.headline}, window
 

@@ -3,12 +3,15 @@
 
   python tools/ladder.py prepare config/ladders/silo.yaml [--results results]   # price each rung, the command
   python tools/ladder.py record  config/ladders/silo.yaml --results results     # the record from analysed rungs
+  python tools/ladder.py record  config/ladders/silo.yaml --results results --keep-committed   # add a rung
   python tools/ladder.py order   config/ladders/silo.yaml        # from_paper into the committed record
 
 ``prepare`` prices every rung (``granflow plan --config config/ladders/<scene>.yaml`` prints the same per case)
 and prints the Snakemake target that runs them; a rung the scene refuses is said in one line. ``record`` writes
 ``validation/<scene>/ladder.csv``, ``ladder.md`` and ``figures/ladder.png`` from the rungs analysed under
-``--results`` (the rule ``ladder_record`` does the same). ``order`` carries the ladder file's ``from_paper`` into
+``--results`` (the rule ``ladder_record`` does the same); with ``--keep-committed`` a rung whose runs are not at
+hand keeps its rows of the committed ``ladder.csv`` (state "kept"), so one new rung joins a committed ladder
+without running the others again. ``order`` carries the ladder file's ``from_paper`` into
 the committed ``ladder.csv`` and ``ladder.md`` without the runs.
 """
 from __future__ import annotations
@@ -50,7 +53,8 @@ def cmd_prepare(args) -> int:
 
 def cmd_record(args) -> int:
     ladder = load_ladder(args.ladder)
-    print(record(ladder, args.results, ROOT / "validation" / ladder["scene"] if args.out is None else Path(args.out)))
+    print(record(ladder, args.results, ROOT / "validation" / ladder["scene"] if args.out is None else Path(args.out),
+                 keep_committed=args.keep_committed))
     return 0
 
 
@@ -94,6 +98,9 @@ def main(argv=None) -> int:
         if name not in ("order", "rejudge"):
             p.add_argument("--results", type=Path, default=Path("results"), required=name == "record",
                            help="the results directory the rungs run in (their cases under ladders/<scene>/<rung>/)")
+        if name == "record":
+            p.add_argument("--keep-committed", action="store_true",
+                           help="a rung whose runs are not at hand keeps its rows of the committed ladder.csv")
         if name != "prepare":
             p.add_argument("--out", default=None, help="folder of the record (default validation/<scene>)")
         p.set_defaults(func=func)

@@ -256,10 +256,49 @@ def case_label(case: dict) -> str:
     return ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}" for k, v in case["case"].items())
 
 
-def table(ladder: dict, results: Path) -> pd.DataFrame:
+#: the state of a row kept from the committed ladder.csv (:func:`committed_rows`), with the file's commit
+KEPT = "run (kept from the committed ladder.csv{when}; its runs are not at hand)"
+
+
+def _last_commit(path: Path) -> str:
+    """`` of <date> (<commit>)``: the last commit of ``path``, or nothing outside a git clone."""
+    import subprocess
+
+    try:
+        out = subprocess.run(["git", "log", "-1", "--format=%cs (%h)", "--", str(path)], cwd=ROOT, text=True,
+                             capture_output=True, timeout=30).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return f" of {out}" if out else ""
+
+
+def committed_rows(ladder: dict, rung: dict, path: Path | None = None) -> list[dict]:
+    """The measured rows of ``rung`` in the committed ``validation/<scene>/ladder.csv`` (or ``path``), when it
+    names the same rung with the same knob: how one rung is added to a committed ladder without running the
+    others again (``tools/ladder.py record --keep-committed``). Their verdicts are judged again by today's rules
+    (:func:`rejudge`); their numbers are those of the code that measured them, their state says they were kept."""
+    path = ROOT / "validation" / ladder["scene"] / "ladder.csv" if path is None else Path(path)
+    if not path.exists():
+        return []
+    df = pd.read_csv(path)
+    mine = df[(df["rung"] == rung["name"]) & (df["knob"] == rung["knob"])
+              & df["state"].astype(str).str.startswith("run") & df["quantity"].notna()]
+    if mine.empty:
+        return []
+    mine = rejudge(mine.assign(state=KEPT.format(when=_last_commit(path))), ladder)
+    return [{k: v for k, v in r.items() if k != "from_paper"} for r in mine.to_dict("records")]
+
+
+def table(ladder: dict, results: Path, keep_committed: bool = False) -> pd.DataFrame:
+    """Every rung's headline rows: measured from its analysed cases under ``results``; the base rung from the
+    committed record when its runs are absent; with ``keep_committed``, any other rung without runs from the
+    committed ladder.csv (:func:`committed_rows`); planned rungs priced."""
     rows = []
     for rung in ladder["rungs"]:
         checks, cases = rung_checks(ladder, rung, results)
+        if not checks and keep_committed and (kept := committed_rows(ladder, rung)):
+            rows += kept
+            continue
         state = "run"
         if not checks and not rung.get("set") and not rung.get("rung") and not rung.get("sweep"):
             checks, cases = committed_checks(ladder)
@@ -452,11 +491,12 @@ def series_lines(df: pd.DataFrame, ladder: dict) -> str:
     return "Series (rungs along one knob, extrapolated):\n\n" + "\n".join(lines) + "\n\n"
 
 
-def record(ladder: dict, results: Path, out: Path) -> str:
+def record(ladder: dict, results: Path, out: Path, keep_committed: bool = False) -> str:
     """The ladder's record from its rungs' analysed cases under ``results`` (:func:`table`): ``<out>/ladder.csv``,
     ``ladder.md`` and ``figures/ladder.png`` (the workflow's rule ``ladder_record``; ``tools/ladder.py record``).
+    With ``keep_committed``, a rung without runs keeps its committed rows (:func:`committed_rows`).
     Returns the markdown."""
-    df = table(ladder, results)
+    df = table(ladder, results, keep_committed)
     out = Path(out)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     df.to_csv(out / "ladder.csv", index=False, float_format="%.6g")

@@ -4,9 +4,11 @@ import importlib.util
 import math
 from pathlib import Path
 
+import pandas as pd
 import pytest
 import yaml
 
+from granflow import ladder as ladders
 from granflow.config import ConfigError
 from granflow.scene_files import load_scene
 
@@ -228,3 +230,21 @@ def test_committed_ladders_are_judged_by_todays_rules(root):
         assert list(rejudge(df, ladder)["verdict"]) == list(df["verdict"]), ladder["scene"]
         run = df[df["state"].astype(str).str.startswith("run")]
         assert not run["verdict"].astype(str).str.startswith("differs").any(), ladder["scene"]
+
+
+def test_a_rung_without_runs_may_keep_its_committed_rows(tmp_path):
+    """``--keep-committed``: a rung whose runs are absent keeps its rows of the committed ladder.csv (same rung,
+    same knob), said so in its state and judged by today's rules; a rung whose knob changed keeps nothing."""
+    ladder = ladder_tool.load_ladder(ROOT / "config" / "ladders" / "channel.yaml")
+    committed = pd.read_csv(ROOT / "validation" / "channel" / "ladder.csv")
+    rung = next(r for r in ladder["rungs"] if r["name"] == "B10")
+    kept = ladders.committed_rows(ladder, rung)
+    row = committed[(committed["rung"] == "B10") & committed["quantity"].notna()].iloc[0]
+    assert len(kept) == 1 and kept[0]["ours"] == row["ours"] and kept[0]["cpu_hours"] == row["cpu_hours"]
+    assert kept[0]["state"].startswith("run (kept from the committed ladder.csv")
+    assert ladders.committed_rows(ladder, dict(rung, knob="depth B 5 → 11 d_p")) == []
+    ladder["rungs"], ladder["planned"] = [rung], []
+    assert list(ladder_tool.table(ladder, tmp_path)["state"]) == ["not run"]          # off unless asked
+    df = ladder_tool.table(ladder, tmp_path, keep_committed=True)
+    assert list(df["rung"]) == ["B10"] and df["state"].iloc[0] == kept[0]["state"]
+    assert "kept from the committed ladder.csv" in ladder_tool.markdown(df, ladder)

@@ -1,11 +1,12 @@
 """The campaign file, loaded in one pass: read, its own keys, its scenes, their limits, its cost study.
 
-:func:`load_campaign` reads the file and its overrides (:mod:`granflow.config`), then
-:func:`validate_campaign` checks what was read phase by phase, each in its own module: the
-campaign's own keys (:mod:`granflow.schema`), each scene resolved and checked with its sweeps
-(:mod:`granflow.scene_files`), the sweep points' size and CPU-hour limits (:mod:`granflow.resources`,
-where cases are priced), then the cost study (:mod:`granflow.cost`, whose runs meet the same
-limits one by one). It runs before any Snakemake rule;
+:func:`load_campaign` runs the phases in order, each in its own module and each calling only
+modules below it: it reads the file and its overrides (:mod:`granflow.config`), then checks the
+campaign's own keys (:mod:`granflow.schema`), resolves and checks each scene with its sweeps
+(:mod:`granflow.scene_files`), holds the sweep points to the size and CPU-hour limits
+(:mod:`granflow.resources`, where cases are priced), then builds the cost study (:mod:`granflow.cost`,
+whose runs meet the same limits one by one). :func:`validate_campaign` runs the same checking
+phases on a campaign that was read elsewhere (Snakemake's ``config``). It runs before any Snakemake rule;
 every refusal is a :class:`granflow.config.ConfigError` naming the key, the value and the allowed range.
 """
 from __future__ import annotations
@@ -25,7 +26,7 @@ def validate_campaign(data: dict, root: Path, source: str = "config") -> dict:
 
     Scene file paths are relative to ``root``. Returns a copy with each enabled
     scene's validated content under ``scenes.<name>.scene`` and, with a ``cost``
-    section, the studies under ``cost_studies``.
+    section, the studies under ``cost_studies``. The phases of :func:`load_campaign`, after its reading.
     """
     data = check_campaign_keys(data, root, source)
     points = check_scenes(data, root, source)
@@ -41,8 +42,15 @@ def load_campaign(path: str | Path, overrides: Iterable[str] = (), root: Path | 
     Scene files and a relative ``results_dir`` are found from ``root`` (default: the working
     directory, the project root for every command, as for Snakemake), never from where the
     file lies. Returns the campaign dict with each enabled scene's validated file content
-    under ``scenes.<name>.scene``.
+    under ``scenes.<name>.scene``. The phases run here one after the other, as in
+    :func:`validate_campaign`, each handing the campaign only to the modules below it.
     """
+    source = str(path)
     data = apply_overrides(load_yaml(path), overrides)
     root = Path(root) if root else Path.cwd()
-    return validate_campaign(data, root, source=str(path))
+    data = check_campaign_keys(data, root, source)
+    points = check_scenes(data, root, source)
+    check_campaign_limits(data, points, source)
+    if data.get("cost"):
+        data["cost_studies"] = cost_studies(data, root, source)
+    return data

@@ -14,6 +14,7 @@ from typing import Iterable
 
 from . import registry
 from .config import apply_overrides
+from .declarations import SweepAxis
 from .resources import check_campaign_cpu_hours, check_sweep_sizes
 from .scene_hooks import REPLICATE
 from .schema import Validator, format_error, load_schema, require, validate
@@ -72,6 +73,7 @@ def check_scenes(data: dict, root: Path, source: str = "config") -> dict[str, li
                 f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
         if not sc.get("enabled", True):
             continue
+        sweep = sc.get("sweep") or {}
         scene_path = Path(sc.get("scene_file") or f"config/scenes/{name}.yaml")
         if not scene_path.is_absolute():
             scene_path = root / scene_path
@@ -81,7 +83,11 @@ def check_scenes(data: dict, root: Path, source: str = "config") -> dict[str, li
         rung = data["rung"]
         require(rung in scene["rungs"],
                f"{path}: rung = {rung!r} is not defined in {scene_path}: allowed {', '.join(scene['rungs'])}")
-        points[name] = _check_sweep(name, sc.get("sweep") or {}, scene, rung, path)
+        declared = registry.get(name)
+        check_sweep(name, sweep, declared.sweep, path)
+        points[name] = list(declared.sweep_points(scene, sweep, rung))
+        for point in points[name]:
+            declared.check_case(scene, rung, point, path)
         sc["scene"] = scene
     return points
 
@@ -92,21 +98,27 @@ def check_scene_sweep(name: str, scene: dict, sweep: dict, rung: str, source: st
     within ``max_cpu_hours`` of ``limits``); returns the points' CPU-hours. A ladder's rung
     (:mod:`granflow.ladder`) is checked so, its scene changed in memory."""
     require(rung in scene["rungs"], f"{source}: rung = {rung!r} is not defined: allowed {', '.join(scene['rungs'])}")
-    points = _check_sweep(name, sweep, scene, rung, source)
+    declared = registry.get(name)
+    check_sweep(name, sweep, declared.sweep, source)
+    points = list(declared.sweep_points(scene, sweep, rung))
+    for point in points:
+        declared.check_case(scene, rung, point, source)
     estimates = {name: check_sweep_sizes(name, scene, rung, points, limits, source)}
     return check_campaign_cpu_hours(estimates, rung, limits, source)
 
 
-def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str) -> list[dict]:
-    """Every value of the sweep within the scene schema's bounds of its case key and every point
-    feasible (the scene's :meth:`~granflow.registry.Scene.check_case`); returns the points."""
-    sc = registry.get(name)
+def check_sweep(name: str, sweep: dict, axes: Iterable[SweepAxis], source: str) -> None:
+    """A campaign's sweep of scene ``name`` (``scenes.<name>.sweep``): every key one of the scene's
+    ``axes`` (or the seed of its replicates, :data:`REPLICATE`, where its case has one), every value
+    within the scene schema's bounds of its case key, and no two values of an axis naming the same
+    result directory. Its points are then checked by the scene (:meth:`~granflow.registry.Scene.check_case`)."""
+    axes = tuple(axes)
     case_schema = load_schema(name)["properties"]["case"]["properties"]
     # the scene's axes, and the seed of its replicates (REPLICATE) where its case has one
-    axes = {a.key for a in sc.sweep} | ({REPLICATE.key} & set(case_schema))
+    keys = {a.key for a in axes} | ({REPLICATE.key} & set(case_schema))
     for key, values in sweep.items():
-        require(key in axes, f"{path}: unknown key scenes.{name}.sweep.{key} (value {values!r}); "
-                            f"allowed keys here: {', '.join(sorted(axes))}")
+        require(key in keys, f"{source}: unknown key scenes.{name}.sweep.{key} (value {values!r}); "
+                             f"allowed keys here: {', '.join(sorted(keys))}")
         schema = {k: v for k, v in case_schema[key].items() if k != "default"}
         if isinstance(schema.get("type"), list):  # a sweep lists values: null (= the rung's default) is not one
             schema["type"] = [t for t in schema["type"] if t != "null"]
@@ -116,24 +128,21 @@ def _check_sweep(name: str, sweep: dict, scene: dict, rung: str, path: str) -> l
                 err.path.appendleft(i)
                 for part in reversed(("scenes", name, "sweep", key)):
                     err.path.appendleft(part)
-                raise ConfigError(format_error(err, path))
-    for axis in sc.sweep:  # one result directory per value, and the value the directory names
+                raise ConfigError(format_error(err, source))
+    for axis in axes:  # one result directory per value, and the value the directory names
         seen = {}
         for value in sweep.get(axis.key) or []:
             label = f"{axis.label}~{axis.to_dir(value)}"
-            require(label not in seen,
-                    f"{path}: scenes.{name}.sweep.{axis.key} = {seen.get(label)!r} and {value!r} name the same "
-                    f"result directory {label}: allowed values that differ within 6 significant digits")
+            if label in seen:
+                raise ConfigError(f"{source}: scenes.{name}.sweep.{axis.key} = {seen[label]!r} and {value!r} name the "
+                                  f"same result directory {label}: allowed values that differ within 6 significant digits")
             seen[label] = value
             if not axis.name:
                 back = axis.from_dir(axis.to_dir(value))
-                require(math.isclose(back, float(value), rel_tol=1e-12, abs_tol=1e-300),
-                        f"{path}: scenes.{name}.sweep.{axis.key} = {value!r} has more digits than its result "
-                        f"directory {label} keeps (it would run as {back:g}): allowed at most 6 significant digits")
-    points = list(sc.sweep_points(scene, sweep, rung))
-    for point in points:
-        sc.check_case(scene, rung, point, path)
-    return points
+                if not math.isclose(back, float(value), rel_tol=1e-12, abs_tol=1e-300):
+                    raise ConfigError(f"{source}: scenes.{name}.sweep.{axis.key} = {value!r} has more digits than its "
+                                      f"result directory {label} keeps (it would run as {back:g}): allowed at most 6 "
+                                      f"significant digits")
 
 
 def check_rung(scene: dict, rung: str, source: str = "--rung") -> dict:

@@ -65,6 +65,12 @@ class SweepAxis:
         return text if self.name else float(text) / self.scale
 
 
+#: the replicate level of a case directory, ``<case>/seed~<seed>``: every scene's ``case`` section has a
+#: ``seed``; a campaign that lists ``sweep.seed`` runs each of its points once per seed (written in full,
+#: as a name: a seed has up to 9 digits)
+REPLICATE = SweepAxis("seed", "seed", name=True)
+
+
 @dataclass(frozen=True)
 class Deferred:
     """A function named by its module and name, imported on its first call.

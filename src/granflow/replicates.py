@@ -1,7 +1,7 @@
 """Replicates: the same cases run from other seeds, judged as one record.
 
 A campaign whose sweep lists seeds runs each case once per seed, in ``<case>/seed~<seed>``
-(:data:`granflow.scene_hooks.REPLICATE`). A scene's validation compares the cases of one seed with
+(:data:`granflow.declarations.REPLICATE`). A scene's validation compares the cases of one seed with
 its paper, exactly as without replicates (:func:`split` hands it the case names without the seed
 level); :func:`pool` then sets the replicates' results beside each other, check by check: ours is
 their mean, its statistical error the mean's (:math:`\\sqrt{\\sum_i \\sigma_i^2}/n`), ``run_to_run``

@@ -2,22 +2,20 @@
 by the scene's own checks, its rungs and its sweeps.
 
 :func:`load_scene` reads, overrides and validates one scene file (:func:`validate_scene`);
-:func:`check_scenes` does so for every enabled scene of a campaign and checks each sweep point
-by its scene; the points' sizes are the limits' (:mod:`granflow.resources`). :func:`check_scene_sweep`
+:func:`check_scenes` does so for every enabled scene of a campaign, has its sweep checked against
+the scene's schema (:func:`granflow.schema.check_sweep`) and each sweep point by its scene; the
+points' sizes are the limits' (:mod:`granflow.resources`). :func:`check_scene_sweep`
 checks one scene's sweep alone, sizes included, as a ladder's rung.
 """
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Iterable
 
 from . import registry
 from .config import apply_overrides
-from .declarations import SweepAxis
 from .resources import check_campaign_cpu_hours, check_sweep_sizes
-from .scene_hooks import REPLICATE
-from .schema import Validator, format_error, load_schema, require, validate
+from .schema import check_sweep, load_schema, require, validate  # noqa: F401 (load_schema: the name stays here for the callers that patch it)
 from .yamlio import ConfigError, load_yaml
 
 RUNGS = ("smoke", "demo", "study", "paper", "validation")
@@ -105,44 +103,6 @@ def check_scene_sweep(name: str, scene: dict, sweep: dict, rung: str, source: st
         declared.check_case(scene, rung, point, source)
     estimates = {name: check_sweep_sizes(name, scene, rung, points, limits, source)}
     return check_campaign_cpu_hours(estimates, rung, limits, source)
-
-
-def check_sweep(name: str, sweep: dict, axes: Iterable[SweepAxis], source: str) -> None:
-    """A campaign's sweep of scene ``name`` (``scenes.<name>.sweep``): every key one of the scene's
-    ``axes`` (or the seed of its replicates, :data:`REPLICATE`, where its case has one), every value
-    within the scene schema's bounds of its case key, and no two values of an axis naming the same
-    result directory. Its points are then checked by the scene (:meth:`~granflow.registry.Scene.check_case`)."""
-    axes = tuple(axes)
-    case_schema = load_schema(name)["properties"]["case"]["properties"]
-    # the scene's axes, and the seed of its replicates (REPLICATE) where its case has one
-    keys = {a.key for a in axes} | ({REPLICATE.key} & set(case_schema))
-    for key, values in sweep.items():
-        require(key in keys, f"{source}: unknown key scenes.{name}.sweep.{key} (value {values!r}); "
-                             f"allowed keys here: {', '.join(sorted(keys))}")
-        schema = {k: v for k, v in case_schema[key].items() if k != "default"}
-        if isinstance(schema.get("type"), list):  # a sweep lists values: null (= the rung's default) is not one
-            schema["type"] = [t for t in schema["type"] if t != "null"]
-        validator = Validator(schema)
-        for i, value in enumerate(values):
-            for err in validator.iter_errors(value):
-                err.path.appendleft(i)
-                for part in reversed(("scenes", name, "sweep", key)):
-                    err.path.appendleft(part)
-                raise ConfigError(format_error(err, source))
-    for axis in axes:  # one result directory per value, and the value the directory names
-        seen = {}
-        for value in sweep.get(axis.key) or []:
-            label = f"{axis.label}~{axis.to_dir(value)}"
-            if label in seen:
-                raise ConfigError(f"{source}: scenes.{name}.sweep.{axis.key} = {seen[label]!r} and {value!r} name the "
-                                  f"same result directory {label}: allowed values that differ within 6 significant digits")
-            seen[label] = value
-            if not axis.name:
-                back = axis.from_dir(axis.to_dir(value))
-                if not math.isclose(back, float(value), rel_tol=1e-12, abs_tol=1e-300):
-                    raise ConfigError(f"{source}: scenes.{name}.sweep.{axis.key} = {value!r} has more digits than its "
-                                      f"result directory {label} keeps (it would run as {back:g}): allowed at most 6 "
-                                      f"significant digits")
 
 
 def check_rung(scene: dict, rung: str, source: str = "--rung") -> dict:

@@ -5,12 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .declarations import SweepAxis
-
-#: the replicate level of a case directory, ``<case>/seed~<seed>``: every scene's ``case`` section has a
-#: ``seed``; a campaign that lists ``sweep.seed`` runs each of its points once per seed (written in full,
-#: as a name: a seed has up to 9 digits)
-REPLICATE = SweepAxis("seed", "seed", name=True)
+from .declarations import REPLICATE, SweepAxis  # noqa: F401 (REPLICATE re-exported: case names use it)
 
 
 class StudyHooks:

@@ -4,7 +4,8 @@ Two kinds of file are validated against JSON schemas in ``config/schema``: the c
 (``config/config.yaml``) and the scene files (``config/scenes/<scene>.yaml``). Every refusal is a
 :class:`~granflow.yamlio.ConfigError` whose message names the dotted key, the offending value and
 the allowed range (:func:`format_error`), so a user can fix the file without reading the schema.
-A campaign's own keys are checked here (:func:`check_campaign_keys`), its ``results_dir`` with them.
+A campaign's own keys are checked here (:func:`check_campaign_keys`), its ``results_dir`` with them, and
+each scene's sweep against that scene's schema once the scene is resolved (:func:`check_sweep`).
 """
 from __future__ import annotations
 
@@ -13,9 +14,11 @@ import functools
 import math
 import os
 from pathlib import Path
+from typing import Iterable
 
 import jsonschema
 
+from .declarations import REPLICATE, SweepAxis
 from .yamlio import ConfigError, dotted_path, load_yaml, refuse_templating
 
 #: Root of the project (``src/granflow/schema.py`` -> project root).
@@ -162,3 +165,41 @@ def _check_results_is_a_directory(value: str, root: Path, source: str) -> None:
                 raise ConfigError(f"{source}: results_dir = {value!r}{what} is {kind}: allowed a directory, "
                                   f"or a path where one can be made")
             return
+
+
+def check_sweep(name: str, sweep: dict, axes: Iterable[SweepAxis], source: str) -> None:
+    """A campaign's sweep of scene ``name`` (``scenes.<name>.sweep``): every key one of the scene's
+    ``axes`` (or the seed of its replicates, :data:`REPLICATE`, where its case has one), every value
+    within the scene schema's bounds of its case key, and no two values of an axis naming the same
+    result directory. Its points are then checked by the scene (:meth:`~granflow.registry.Scene.check_case`)."""
+    axes = tuple(axes)
+    case_schema = load_schema(name)["properties"]["case"]["properties"]
+    # the scene's axes, and the seed of its replicates (REPLICATE) where its case has one
+    keys = {a.key for a in axes} | ({REPLICATE.key} & set(case_schema))
+    for key, values in sweep.items():
+        require(key in keys, f"{source}: unknown key scenes.{name}.sweep.{key} (value {values!r}); "
+                             f"allowed keys here: {', '.join(sorted(keys))}")
+        schema = {k: v for k, v in case_schema[key].items() if k != "default"}
+        if isinstance(schema.get("type"), list):  # a sweep lists values: null (= the rung's default) is not one
+            schema["type"] = [t for t in schema["type"] if t != "null"]
+        validator = Validator(schema)
+        for i, value in enumerate(values):
+            for err in validator.iter_errors(value):
+                err.path.appendleft(i)
+                for part in reversed(("scenes", name, "sweep", key)):
+                    err.path.appendleft(part)
+                raise ConfigError(format_error(err, source))
+    for axis in axes:  # one result directory per value, and the value the directory names
+        seen = {}
+        for value in sweep.get(axis.key) or []:
+            label = f"{axis.label}~{axis.to_dir(value)}"
+            if label in seen:
+                raise ConfigError(f"{source}: scenes.{name}.sweep.{axis.key} = {seen[label]!r} and {value!r} name the "
+                                  f"same result directory {label}: allowed values that differ within 6 significant digits")
+            seen[label] = value
+            if not axis.name:
+                back = axis.from_dir(axis.to_dir(value))
+                if not math.isclose(back, float(value), rel_tol=1e-12, abs_tol=1e-300):
+                    raise ConfigError(f"{source}: scenes.{name}.sweep.{axis.key} = {value!r} has more digits than its "
+                                      f"result directory {label} keeps (it would run as {back:g}): allowed at most 6 "
+                                      f"significant digits")

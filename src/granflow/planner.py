@@ -180,6 +180,8 @@ def answer(target: str, cores: int, root: Path = PROJECT_ROOT) -> dict:
         out["line"] = (f"{head}: measured, rung {r['rung']}: {r['ours']:.4g} ± {err:.2g} against the paper's "
                        f"{r['paper']} (reaches {100 * x:.2g} % outside it; {samples}), {r['cpu_hours']:.3g} CPU-h "
                        f"measured, {wall:.3g} wall-h on {used} of {cores} cores")
+        if str(r["state"]).startswith("run (kept"):   # granflow.ladder.committed_rows: an earlier code's numbers
+            out["line"] += f" ({r['state'][5:-1]}: its errors are those of the code that measured it)"
         return out
     best, why = extrapolate(df, ladder, quantity, p, r2r)
     if best:

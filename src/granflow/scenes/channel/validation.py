@@ -17,7 +17,8 @@ averaging window in blocks). Per steady case it compares
 
 and, from :mod:`.more_checks` and :mod:`.kinetic_checks`, the paper's other results one W and two φ̄ can
 test (eqs. B1-B2, Ω/ω, (du/dx)/√T, ln φ's shape, u_cm's fluctuation, l_c, the trends with φ̄ across the
-cases, and fig. 13's collapse and divergence of the loose zone's p_φ and μ_φ).
+cases, and fig. 13's collapse and divergence of the loose zone's p_φ and μ_φ), and from :mod:`.width_checks`
+what two widths at one φ̄ can test (the speeds' rise with W, l_s ∝ W, σ_xx ∝ W, μ_wall and δ0.95/W against W).
 
 A case that was not averaged in a steady state gets NaN and the reason in each note.
 Units: :math:`d_p`, :math:`\\sqrt{d_p/g}`, :math:`\\rho_p = 1` (as the analysis writes them).
@@ -40,6 +41,7 @@ from .analysis import JOP2015, ChannelAnalysis, analyse_profile, plug_phi
 from .measurement import central_errors, headline_variants
 from .kinetic_checks import kinetic_checks
 from .more_checks import more_checks
+from .width_checks import width_checks
 
 NAN = float("nan")
 #: the paper's u_max/u_slip, section 3.1 and figure 5(c) ("1.37-1.40 for all W and phi-bar")
@@ -422,6 +424,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
         if (case.path / "analysis" / "blocks.csv").exists():
             blocks.append(pd.read_csv(case.path / "analysis" / "blocks.csv").assign(case=case.name))
     checks += more_checks(loaded) + kinetic_checks(loaded)  # the paper's other results one W and two φ̄ can test
+    checks += width_checks(loaded)  # and those two W at one φ̄ can
     profiles = {}
     if velocity:
         profiles["velocity_scaled"] = pd.concat(velocity, ignore_index=True)

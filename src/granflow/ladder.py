@@ -5,8 +5,10 @@ of scene-file changes (``set:``, dotted keys as ``--set``) or of sweep values (`
 for that key) with the knob it turns in words; ``planned:`` rungs are only priced. A rung with ``replicate: true``
 runs the first rung's cases again with another random seed and nothing else: the record reads it as the first
 rung's second sample (:func:`scatter_lines`). A ``series:`` entry names rungs that turn one knob by steps and reads
-the straight line through them at chosen points, such as the paper's size (:func:`series_fit`). Every rung
-declares ``from_paper``, its order from the paper's setup (0 the paper's), which ``ladder.csv`` carries.
+the straight line through them at chosen points, such as the paper's size (:func:`series_fit`). A ``pools:`` entry
+reads rungs run apart as one record (:func:`pool_checks`): the scene's validation over all their cases gives the
+rows only a sweep across the rungs can, such as a scaling across feed rates. Every rung and pool declares
+``from_paper``, its order from the paper's setup (0 the paper's), which ``ladder.csv`` carries.
 
 The ladders are targets of the workflow (``snakemake ladder``, ``snakemake ladder_<scene>``): each rung run is a
 one-scene campaign in memory (:func:`rung_campaign`: the scene file changed and validated exactly as a
@@ -58,8 +60,15 @@ def load_ladder(path: Path) -> dict:
     if data["scene"] not in registry.names():
         raise ConfigError(f"ladder: {path}: scene = {data['scene']!r}: allowed one of "
                           f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
-    names = [r.get("name") for r in data["rungs"] + (data.get("planned") or [])]
-    for rung in data["rungs"] + (data.get("planned") or []):
+    pools = data.get("pools") or []
+    names = [r.get("name") for r in data["rungs"] + (data.get("planned") or []) + pools]
+    for pool in pools:
+        pooled = pool.get("rungs")
+        if not (isinstance(pooled, list) and len(set(pooled)) >= 2 and set(pooled) <= set(names) - {pool.get("name")}
+                and isinstance(pool.get("knob"), str)):
+            raise ConfigError(f"ladder: {path}: pool {pool.get('name')!r}: rungs = {pooled!r}: allowed a list of two "
+                              f"or more rung names of this ladder, with a knob in words")
+    for rung in data["rungs"] + (data.get("planned") or []) + pools:
         name = rung.get("name")
         if not isinstance(name, str) or not RUNG_NAME.fullmatch(name) or names.count(name) > 1:
             raise ConfigError(f"ladder: {path}: rung name = {name!r}: allowed a name of letters, digits and _ "
@@ -82,7 +91,8 @@ def ladder_files(root: Path = ROOT) -> list[Path]:
 def with_from_paper(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
     """The ladder table with each rung's ``from_paper`` (its order from the paper's setup, from the ladder
     file) as the column after ``knob``; an earlier ``from_paper`` column is replaced."""
-    order = {r["name"]: r["from_paper"] for r in ladder["rungs"] + (ladder.get("planned") or [])}
+    order = {r["name"]: r["from_paper"] for r in ladder["rungs"] + (ladder.get("planned") or []) +
+             (ladder.get("pools") or [])}
     out = df.drop(columns=["from_paper"], errors="ignore")
     out.insert(list(out.columns).index("knob") + 1 if "knob" in out else 0, "from_paper",
                [order.get(name, np.nan) for name in out["rung"]])
@@ -92,7 +102,7 @@ def with_from_paper(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
 def order_line(ladder: dict) -> str:
     """The ladder's order of its rungs from the paper's setup, as ``ladder.md`` says it (nothing for a ladder
     that declares none: :func:`load_ladder` refuses a file without it)."""
-    rungs = ladder["rungs"] + (ladder.get("planned") or [])
+    rungs = ladder["rungs"] + (ladder.get("planned") or []) + (ladder.get("pools") or [])
     if "from_paper_order" not in ladder or any("from_paper" not in r for r in rungs):
         return ""
     rungs = sorted(rungs, key=lambda r: r["from_paper"])
@@ -197,12 +207,40 @@ def rung_checks(ladder: dict, rung: dict, results: Path) -> tuple[list, list[dic
     base = rung_cases_root(results, ladder, rung)
     cases = {str(p.parent.parent.relative_to(base)): p.parent.parent
              for p in sorted(base.glob("**/analysis/scalars.json"))}
+    return _headline_checks(ladder, base, cases, ladder["headlines"])
+
+
+def _headline_checks(ladder: dict, base: Path, cases: dict, headlines: list) -> tuple[list, list[dict]]:
     if not cases:
         return [], []
     # judged as the record is: the scene's check kinds, replicates pooled (granflow.validation.scene_validation)
     result = scene_validation(registry.get(ladder["scene"]), base, cases)
-    keep = [c for c in result.checks if any(c.quantity.startswith(h) for h in ladder["headlines"])]
+    keep = [c for c in result.checks if any(c.quantity.startswith(h) for h in headlines)]
     return keep, [case_summary(p) for p in cases.values()]
+
+
+def pool_checks(ladder: dict, pool: dict, results: Path) -> tuple[list, list[dict], str]:
+    """A pool's rows: the scene's validation over the analysed cases of all its rungs at once, its headlines
+    (the pool's ``headlines``, else the ladder's), their case summaries, and what it waits for ("" when every
+    rung has its cases analysed). Rungs whose cases share a name (the same sweep point) cannot be pooled."""
+    by_name = {r["name"]: r for r in ladder["rungs"]}
+    cases, missing = {}, []
+    for name in pool["rungs"]:
+        rung = by_name.get(name)
+        base = rung_cases_root(results, ladder, rung) if rung else None
+        found = sorted(base.glob("**/analysis/scalars.json")) if base else []
+        if len(found) < (math.prod(len(v) for v in rung_sweep(ladder, rung).values()) if rung else 1):
+            missing.append(name)
+        for p in found:
+            case = str(p.parent.parent.relative_to(base))
+            if case in cases:
+                raise ConfigError(f"ladder {ladder['scene']}: pool {pool['name']!r}: case {case!r} is in two of its "
+                                  f"rungs: allowed rungs whose cases differ (each its own sweep point)")
+            cases[case] = p.parent.parent
+    if missing:
+        return [], [], "waits for " + ", ".join(missing)
+    base = rung_cases_root(results, ladder, by_name[pool["rungs"][0]])
+    return (*_headline_checks(ladder, base, cases, pool.get("headlines") or ladder["headlines"]), "")
 
 
 def committed_checks(ladder: dict) -> tuple[list, list[dict]]:
@@ -276,15 +314,19 @@ def committed_rows(ladder: dict, rung: dict, path: Path | None = None) -> list[d
     """The measured rows of ``rung`` in the committed ``validation/<scene>/ladder.csv`` (or ``path``), when it
     names the same rung with the same knob: how one rung is added to a committed ladder without running the
     others again (``tools/ladder.py record --keep-committed``). Their verdicts are judged again by today's rules
-    (:func:`rejudge`); their numbers are those of the code that measured them, their state says they were kept."""
+    (:func:`rejudge`); their numbers are those of the code that measured them, their state says they were kept.
+    A rung that ran and measured nothing (``ran, not measured: ...``) keeps that row and its reason."""
     path = ROOT / "validation" / ladder["scene"] / "ladder.csv" if path is None else Path(path)
     if not path.exists():
         return []
     df = pd.read_csv(path)
-    mine = df[(df["rung"] == rung["name"]) & (df["knob"] == rung["knob"])
-              & df["state"].astype(str).str.startswith("run") & df["quantity"].notna()]
-    if mine.empty:
-        return []
+    same = df[(df["rung"] == rung["name"]) & (df["knob"] == rung["knob"])]
+    mine = same[same["state"].astype(str).str.startswith("run") & same["quantity"].notna()]
+    if mine.empty:  # a rung that ran and measured nothing keeps why, said to be kept
+        ran = same[same["state"].astype(str).str.startswith("ran, not measured")]
+        when = _last_commit(path)
+        return [{k: v for k, v in r.items() if k != "from_paper" and not (isinstance(v, float) and math.isnan(v))}
+                | {"state": f"{r['state']} (kept from the committed ladder.csv{when})"} for r in ran.to_dict("records")]
     mine = rejudge(mine.assign(state=KEPT.format(when=_last_commit(path))), ladder)
     return [{k: v for k, v in r.items() if k != "from_paper"} for r in mine.to_dict("records")]
 
@@ -321,24 +363,41 @@ def table(ladder: dict, results: Path, keep_committed: bool = False) -> pd.DataF
             lost = "; ".join(f"{case_label(c)} {c['status']}: {str(c['reason']).split(': ERROR')[0]}"
                              for c in cases if c.get("status") not in ("steady", None))
             state = f"run ({len(ended)} of {len(cases)} cases not measured: {lost})"
-        for c in checks:
-            rows.append({"rung": rung["name"], "knob": rung["knob"], "state": state, "quantity": c.quantity,
-                         "replicate": bool(rung.get("replicate")),
-                         "paper": c.paper, "ours": c.ours, "stat": c.error, "syst": c.syst, "verdict": c.verdict,
-                         "run_to_run": c.run_to_run, "n_replicates": c.n_replicates,
-                         "abs_rel_difference": abs(c.difference) if math.isfinite(c.difference) else np.nan,
-                         "rel_error": _rel_error(c) if c.paper_range and math.isfinite(c.ours) else np.nan,
-                         "paper_lo": min(c.paper_range) if c.paper_range else np.nan,
-                         "paper_hi": max(c.paper_range) if c.paper_range else np.nan,
-                         "cases": len(cases), "particles": ", ".join(sorted({f"{c['particles']:,}" for c in cases
-                                                                             if c.get("particles")})),
-                         "cpu_hours": cpu})
+        rows += _rows(rung, state, checks, cases, cpu)
+    for pool in ladder.get("pools") or []:
+        checks, cases, waits = pool_checks(ladder, pool, results)
+        if not checks and keep_committed and (kept := committed_rows(ladder, pool)):
+            rows += kept
+        elif not checks:
+            rows.append({"rung": pool["name"], "knob": pool["knob"], "state": f"not run ({waits or 'no cases'})",
+                         "cpu_hours": np.nan})
+        else:
+            cpu = sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"]))
+            rows += _rows(pool, f"run (pooled: {' + '.join(pool['rungs'])})", checks, cases, cpu)
     for rung in ladder.get("planned", []):
         p = plan(ladder, rung, results, priced_only=True)
         rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "planned (cost model, not run)",
                      "cases": len(p["rows"]), "particles": ", ".join(f"{r['particles']:,}" for r in p["rows"]),
                      "cpu_hours": p["total"]["cpu_hours"]})
     return with_from_paper(pd.DataFrame(rows), ladder)
+
+
+def _rows(rung: dict, state: str, checks: list, cases: list[dict], cpu: float) -> list[dict]:
+    """One ladder.csv row per headline check of a rung (or pool) that was measured."""
+    rows = []
+    for c in checks:
+        rows.append({"rung": rung["name"], "knob": rung["knob"], "state": state, "quantity": c.quantity,
+                     "replicate": bool(rung.get("replicate")),
+                     "paper": c.paper, "ours": c.ours, "stat": c.error, "syst": c.syst, "verdict": c.verdict,
+                     "run_to_run": c.run_to_run, "n_replicates": c.n_replicates,
+                     "abs_rel_difference": abs(c.difference) if math.isfinite(c.difference) else np.nan,
+                     "rel_error": _rel_error(c) if c.paper_range and math.isfinite(c.ours) else np.nan,
+                     "paper_lo": min(c.paper_range) if c.paper_range else np.nan,
+                     "paper_hi": max(c.paper_range) if c.paper_range else np.nan,
+                     "cases": len(cases), "particles": ", ".join(sorted({f"{c['particles']:,}" for c in cases
+                                                                         if c.get("particles")})),
+                     "cpu_hours": cpu, "kind": c.kind})
+    return rows
 
 
 def figure(df: pd.DataFrame, ladder: dict, path: Path) -> None:
@@ -509,7 +568,7 @@ def record(ladder: dict, results: Path, out: Path, keep_committed: bool = False)
 def rejudge(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
     """The committed ladder's rows judged by today's rules without the runs (as tools/rejudge_record.py does
     for a record): each measured row's verdict from its numbers, of its scene's kind (``check_kinds``: a
-    diagnostic gets no verdict); a row with ``n_replicates`` and ``run_to_run`` (a rung whose cases pooled
+    diagnostic gets no verdict; else the row's ``kind``, a check's own); a row with ``n_replicates`` and ``run_to_run`` (a rung whose cases pooled
     several seeds) is judged with them, one without as one run (a replicate rung is its own row)."""
     kinds = registry.get(ladder["scene"]).check_kinds
     out = df.copy()
@@ -521,7 +580,8 @@ def rejudge(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
         stat = float(r["stat"]) if pd.notna(r["stat"]) else float("nan")
         rtr = float(r["run_to_run"]) if pd.notna(r.get("run_to_run", np.nan)) else float("nan")
         n = int(r["n_replicates"]) if pd.notna(r.get("n_replicates", np.nan)) else 1
+        kind = r["kind"] if isinstance(r.get("kind"), str) else "comparison"   # the row's own, where it has one
         out.at[i, "verdict"] = verdict(float(r["ours"]), stat, rng, syst=syst, run_to_run=rtr, n_replicates=n,
-                                       kind=kinds.get(r["quantity"], "comparison"))[0]
+                                       kind=kinds.get(r["quantity"], kind))[0]
     return out
 

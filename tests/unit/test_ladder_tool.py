@@ -185,7 +185,7 @@ def test_the_committed_ladders_carry_their_files_order():
         ladder = ladder_tool.load_ladder(path)
         record = ROOT / "validation" / ladder["scene"]
         df = pd.read_csv(record / "ladder.csv")
-        order = {r["name"]: r["from_paper"] for r in ladder["rungs"] + ladder.get("planned", [])}
+        order = {r["name"]: r["from_paper"] for r in ladder["rungs"] + ladder.get("planned", []) + ladder.get("pools", [])}
         assert list(df.columns[:3]) == ["rung", "knob", "from_paper"]
         assert set(df["rung"]) == set(order), path
         assert all(df["from_paper"] == df["rung"].map(order)), path

@@ -1,0 +1,118 @@
+"""A ladder's pools (granflow.ladder.pool_checks): rungs run apart read as one record, the scene's validation
+over all their cases, for the rows only a sweep across them gives (the heap's q* exponent across feed rates)."""
+from __future__ import annotations
+
+import copy
+import json
+import math
+
+import pytest
+
+import granflow.ladder as lad
+from granflow.config import ConfigError
+from granflow.validation import Check, ValidationResult
+from granflow.schema import PROJECT_ROOT
+
+HEAP = PROJECT_ROOT / "config" / "ladders" / "heap.yaml"
+QUANTITY = "δ/d̄ ∝ q*^a across feed rates at fixed x/L ≥ 0.2: exponent a"
+
+
+@pytest.fixture
+def ladder():
+    """The heap's ladder with its three feed-rate rungs at W = 0.23 m all run (none planned)."""
+    data = copy.deepcopy(lad.load_ladder(HEAP))
+    planned = [r for r in data["planned"] if r["name"] == "mdot10_W023"]
+    data["rungs"] += planned
+    data["planned"] = [r for r in data["planned"] if r["name"] != "mdot10_W023"]
+    return data
+
+
+@pytest.fixture
+def seen(monkeypatch):
+    """The scene's validation replaced by one that reports the cases it was given, as one sweep-wide row."""
+    calls = []
+
+    def validation(scene, base, cases):
+        calls.append(sorted(cases))
+        rates = sorted(float(c.split("mdot~")[1]) for c in cases)
+        kind = "comparison" if len(rates) >= 3 else "diagnostic"
+        return ValidationResult(checks=[Check(QUANTITY, "≈ 0.22", "§3.3", 0.2 + 0.01 * len(rates), 0.01,
+                                              paper_range=(0.215, 0.225), kind=kind),
+                                        Check("dynamic angle of repose α (planar middle)", "25.69", "§3.1", 26.0,
+                                              0.1, case=cases and sorted(cases)[0], paper_range=(25.69, 25.69))])
+
+    monkeypatch.setattr(lad, "scene_validation", validation)
+    monkeypatch.setattr(lad, "case_summary", lambda p: {"dir": str(p), "cpu_hours": 1.5, "particles": 1000,
+                                                        "status": "steady", "case": {}})
+    return calls
+
+
+def analysed(results, ladder, rung_name, case):
+    rung = next(r for r in ladder["rungs"] if r["name"] == rung_name)
+    path = lad.rung_cases_root(results, ladder, rung) / case / "analysis"
+    path.mkdir(parents=True)
+    (path / "scalars.json").write_text(json.dumps({}))
+
+
+def pool_of(ladder):
+    return next(p for p in ladder["pools"] if p["name"] == "W023_rates")
+
+
+def test_a_pool_reads_every_case_of_its_rungs_as_one_record(tmp_path, ladder, seen):
+    for rung, rate in (("W023", 33), ("mdot10_W023", 10), ("mdot120_W023", 120)):
+        analysed(tmp_path, ladder, rung, f"mix~bi1-2/mdot~{rate}")
+    checks, cases, waits = lad.pool_checks(ladder, pool_of(ladder), tmp_path)
+    assert waits == "" and len(cases) == 3
+    assert seen[-1] == ["mix~bi1-2/mdot~10", "mix~bi1-2/mdot~120", "mix~bi1-2/mdot~33"]
+    assert [c.quantity for c in checks] == [QUANTITY]            # the pool's own headlines only
+    df = lad.table(ladder, tmp_path)
+    row = df[df["rung"] == "W023_rates"].iloc[0]
+    assert row["state"] == "run (pooled: W023 + mdot10_W023 + mdot120_W023)"
+    assert row["kind"] == "comparison" and row["cases"] == 3
+    assert math.isclose(row["cpu_hours"], 4.5)                    # the rungs' CPU-hours together
+    assert row["from_paper"] == pool_of(ladder)["from_paper"]
+    assert row["verdict"].startswith("within")
+    assert list(lad.rejudge(df, ladder)["verdict"]) == list(df["verdict"])
+
+
+def test_rejudge_keeps_a_rows_own_kind(tmp_path, ladder, seen):
+    # two of the three rates: the validation calls its q* row a diagnostic; the ladder.csv row says so and its
+    # verdict, judged again from the file, stays none
+    ladder["pools"][0]["rungs"] = ["W023", "mdot120_W023"]
+    analysed(tmp_path, ladder, "W023", "mix~bi1-2/mdot~33")
+    analysed(tmp_path, ladder, "mdot120_W023", "mix~bi1-2/mdot~120")
+    df = lad.table(ladder, tmp_path)
+    row = df[df["rung"] == "W023_rates"].iloc[0]
+    assert row["kind"] == "diagnostic" and row["verdict"].startswith("diagnostic")
+    again = lad.rejudge(df, ladder)
+    assert again.loc[row.name, "verdict"] == row["verdict"]
+    assert list(again["verdict"]) == list(df["verdict"])
+
+
+def test_a_pool_waits_for_a_rung_without_its_cases(tmp_path, ladder, seen):
+    analysed(tmp_path, ladder, "W023", "mix~bi1-2/mdot~33")
+    analysed(tmp_path, ladder, "mdot120_W023", "mix~bi1-2/mdot~120")
+    checks, _, waits = lad.pool_checks(ladder, pool_of(ladder), tmp_path)
+    assert checks == [] and waits == "waits for mdot10_W023"
+    row = lad.table(ladder, tmp_path).set_index("rung").loc["W023_rates"]
+    assert row["state"] == "not run (waits for mdot10_W023)"
+    # the shipped ladder plans that rung: its pool waits for it too
+    shipped = lad.load_ladder(HEAP)
+    assert lad.pool_checks(shipped, pool_of(shipped), tmp_path)[2] == "waits for mdot10_W023"
+
+
+def test_rungs_sharing_a_case_cannot_be_pooled(tmp_path, ladder, seen):
+    for rung in ("W023", "mdot10_W023", "mdot120_W023"):
+        analysed(tmp_path, ladder, rung, "mix~bi1-2/mdot~33")
+    with pytest.raises(ConfigError, match="is in two of its rungs"):
+        lad.pool_checks(ladder, pool_of(ladder), tmp_path)
+
+
+@pytest.mark.parametrize("rungs", [["W023"], ["W023", "nowhere"], "W023", ["W023", "W023"]])
+def test_a_pool_of_fewer_than_two_known_rungs_is_refused(tmp_path, rungs):
+    text = HEAP.read_text().replace("    rungs: [W023, mdot10_W023, mdot120_W023]", f"    rungs: {json.dumps(rungs)}")
+    assert text != HEAP.read_text()
+    path = tmp_path / "heap.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match="pool 'W023_rates': rungs = "):
+        lad.load_ladder(path)

@@ -326,8 +326,10 @@ def committed_rows(ladder: dict, rung: dict, path: Path | None = None) -> list[d
         ran = same[same["state"].astype(str).str.startswith("ran, not measured")]
         when = _last_commit(path)
         return [{k: v for k, v in r.items() if k != "from_paper" and not (isinstance(v, float) and math.isnan(v))}
-                | {"state": f"{r['state']} (kept from the committed ladder.csv{when})"} for r in ran.to_dict("records")]
-    mine = rejudge(mine.assign(state=KEPT.format(when=_last_commit(path))), ladder)
+                | ({} if "(kept from" in r["state"] else {"state": f"{r['state']} (kept from the committed ladder.csv{when})"})
+                for r in ran.to_dict("records")]
+    kept = mine["state"].astype(str).str.startswith(KEPT.split("{")[0])   # kept before: it names where from
+    mine = rejudge(mine.assign(state=mine["state"].where(kept, KEPT.format(when=_last_commit(path)))), ladder)
     return [{k: v for k, v in r.items() if k != "from_paper"} for r in mine.to_dict("records")]
 
 

@@ -298,6 +298,9 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         Param("n_freeze", steps(rung["freeze_interval"]), "steps between immobilising particles that touch the base"),
         Param("n_balance", 1000, "steps between load-balancing shifts along x"),
     ]
+    side = scene["contact"].get("side_wall_friction")
+    if side is not None:  # the side walls' own friction (absent: wall_friction, and the deck is unchanged)
+        params.append(Param("side_wall_friction", number(side), "side walls' sliding friction (wall_friction: base and end walls)"))
     for prm in params:
         number(prm.value)
     pours = [{"type": p["type"], "nper": p["nper"], "vol": round(p["vol"], 12),
@@ -312,6 +315,7 @@ def heap_parameters(scene: dict, rung_name: str, case: dict | None = None) -> tu
         "ntypes": len(sp),
         "neighbor_multi": size_ratio >= MULTI_NEIGHBOR_RATIO,
         "contact": contact_law_context(model),
+        "side_friction": "${wall_friction}" if side is None else "${side_wall_friction}",
         "pours": pours,
         "dump_columns": list(eff["dump_columns"]),
     }

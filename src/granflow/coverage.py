@@ -15,6 +15,8 @@ absent (a record written before checks had kinds). :func:`coverage_line` gives t
 """
 from __future__ import annotations
 
+import math
+
 from pathlib import Path
 
 import jsonschema
@@ -188,6 +190,17 @@ def load(path: str | Path) -> dict:
     return data
 
 
+def measured(check: dict) -> bool:
+    """Whether a check of the record holds a number (``ours`` finite): a row "not measured" compares nothing.
+    A check given without ``ours`` (a quantity named, nothing else) is taken as measured."""
+    if "ours" not in check:
+        return True
+    try:
+        return math.isfinite(float(check.get("ours")))
+    except (TypeError, ValueError):
+        return False
+
+
 def is_comparison(check: dict) -> bool:
     """Whether a check of the record is a comparison: its ``kind`` is ``comparison``, or it has none
     (a record written before checks had kinds).
@@ -205,7 +218,7 @@ def count(entries: list[dict], checks: list[dict]) -> tuple[int, int, list[tuple
     """How many of a paper's results the checks compare.
 
     A result is compared when one of its comparison rows (:func:`rows`) is the quantity of a check
-    that is a comparison (:func:`is_comparison`).
+    that is a comparison (:func:`is_comparison`) and holds a number (:func:`measured`).
 
     Parameters
     ----------
@@ -222,12 +235,16 @@ def count(entries: list[dict], checks: list[dict]) -> tuple[int, int, list[tuple
         In the file's order; the reason is the entry's ``not_compared``, or, for an entry whose
         comparison rows the record lacks or holds as other kinds, says so.
     """
-    compared_quantities = {c["quantity"] for c in checks if is_comparison(c)}
+    compared_quantities = {c["quantity"] for c in checks if is_comparison(c) and measured(c)}
+    unmeasured = {c["quantity"] for c in checks if is_comparison(c)} - compared_quantities
     n_compared, not_compared = 0, []
     for entry in entries:
         compares = [q for q, kind in rows(entry) if kind == "comparison"]
         if any(q in compared_quantities for q in compares):
             n_compared += 1
+        elif any(q in unmeasured for q in compares):
+            not_compared.append((entry["id"], "its rows are in the record but not measured (no number): "
+                                              + "; ".join(q for q in compares if q in unmeasured)))
         elif compares:
             not_compared.append((entry["id"], "no comparison check of the record has its rows: "
                                               + "; ".join(compares)))

@@ -38,7 +38,9 @@ def test_committed_record_judges_only_comparisons(name, root):
             assert c["kind"] == kinds[c["quantity"]], c["quantity"]
         if c["kind"] != "comparison":
             assert c["verdict"] == f"{c['kind']}: no verdict against the paper", c["quantity"]
-        assert int(c.get("n_replicates") or 0) >= 1
+        # a row not measured (NaN, stored as null: e.g. a regime bracket before the sweep has both regimes)
+        # was measured by no replicate
+        assert int(c.get("n_replicates") or 0) >= 1 or c["ours"] is None, c["quantity"]
     for case in summary["cases"]:
         assert case["seed"] in case["seeds"], case["dir"]
 

@@ -96,6 +96,18 @@ def test_coverage_counts_comparisons_only():
     assert reasons["row_relabelled"] == "no comparison check of the record has its rows: v"
 
 
+def test_a_comparison_row_without_a_number_compares_nothing():
+    # the row is in the record (its quantity a comparison) but was not measured: NaN in summary.json, an empty
+    # cell in checks.csv; the result counts as not compared, and says why
+    for empty in (float("nan"), "", None, "nan"):
+        checks = [{"quantity": "x", "kind": "comparison", "ours": empty}, {"quantity": "y exponent", "ours": 0.5}]
+        n, m, not_compared = coverage.count(SYNTHETIC["results"], checks)
+        assert n == 1 and dict(not_compared)["plain"] == ("its rows are in the record but not measured (no "
+                                                           "number): x")
+    n, _, _ = coverage.count(SYNTHETIC["results"], [{"quantity": "x", "ours": "0.9"}, {"quantity": "x", "ours": ""}])
+    assert n == 1                                        # one measured row of the quantity is enough
+
+
 def test_no_checks_compare_nothing():
     n, m, not_compared = coverage.count(SYNTHETIC["results"], [])
     assert (n, m, len(not_compared)) == (0, 8, 8)

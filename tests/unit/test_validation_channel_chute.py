@@ -234,7 +234,7 @@ def test_chute_momentum_balance_checks(tmp_path, chute_errors):
     # sigma_zz is 1.01 x the weight in every bulk bin, each with a 2 % error
     assert weight.ours == pytest.approx(0.01) and weight.error == pytest.approx(0.02)
     assert weight.verdict == "within error (0.5 σ)"
-    bagnold = _by(result.checks, "theta~22", "Bagnold")
+    bagnold = _by(result.checks, "theta~22", "Bagnold profile")
     assert bagnold.ours == 0.998 and bagnold.paper_range is None and "1.20%" in bagnold.note
     phi = _by(result.checks, "theta~22", "bulk φ")
     assert phi.ours == 0.57 and phi.error == 0.002 and "spread by 0.000" in phi.note
@@ -270,3 +270,48 @@ def test_chute_sweep_needs_two_steady_angles(tmp_path, chute_errors):
     result = cuv.validation(tmp_path, {"theta~25": chute_case(tmp_path, "b", 25.0)})
     sweep = _by(result.checks, "sweep", "bulk φ")
     assert math.isnan(sweep.ours) and "needs two steady angles" in sweep.note
+
+
+def test_chute_profile_departing_from_bagnold_near_base_and_surface(tmp_path, chute_errors):
+    # the bulk scatters about the Bagnold fit by ±0.01; the 4 d above the base sit 0.1 below it, the 4 d below
+    # the surface 0.05 above: the ratios are 10 and 5
+    path = chute_case(tmp_path, "a", 22.0)
+    profile = pd.read_csv(path / "analysis" / "profile.csv")
+    z = profile["z"].to_numpy()
+    wiggle = np.where(np.arange(len(z)) % 2 == 0, 0.01, -0.01)
+    shift = np.where((z >= Z_BASE) & (z < Z_BASE + 4), -0.1, np.where((z > Z_SURFACE - 4) & (z <= Z_SURFACE), 0.05, wiggle))
+    profile["u_x"] = profile["u_bagnold"] + shift
+    profile.to_csv(path / "analysis" / "profile.csv", index=False)
+    result = cuv.validation(tmp_path, {"theta~22": path})
+    base, surface = _by(result.checks, "theta~22", cuv.Q_BAGNOLD_BASE), _by(result.checks, "theta~22", cuv.Q_BAGNOLD_SURFACE)
+    assert base.ours == pytest.approx(10.0) and surface.ours == pytest.approx(5.0)
+    assert base.verdict == surface.verdict == "within the paper's range"
+    assert "3 d above the base: 10" in base.variants                          # the narrower zone, same shift
+    # a profile that is Bagnold's up to the edges, closer to it there than in the bulk, does not depart: fails
+    edges = (z < Z_BASE + 4) | (z > Z_SURFACE - 4)
+    profile["u_x"] = profile["u_bagnold"] + np.where(edges, 2.5, 5.0) * wiggle           # ±0.025 and ±0.05, se 0.01
+    profile.to_csv(path / "analysis" / "profile.csv", index=False)
+    flat = _by(cuv.validation(tmp_path, {"theta~22": path}).checks, "theta~22", cuv.Q_BAGNOLD_BASE)
+    assert flat.ours == pytest.approx(0.5) and flat.verdict.startswith("one sample: off")
+
+
+def test_chute_regime_changes_are_bracketed_by_the_sweeps_angles(tmp_path, chute_errors):
+    cases = {"theta~19": chute_case(tmp_path, "a", 19.0, status="arrested"),
+             "theta~22": chute_case(tmp_path, "b", 22.0), "theta~25": chute_case(tmp_path, "c", 25.0),
+             "theta~28": chute_case(tmp_path, "d", 28.0, status="accelerating")}
+    result = cuv.validation(tmp_path, cases)
+    stop, top = _by(result.checks, "sweep", cuv.Q_STOP), _by(result.checks, "sweep", cuv.Q_STEADY_TOP)
+    gap = 3.0 / (2.0 * math.sqrt(3.0))                                        # a uniform spread over 3°
+    assert stop.ours == 20.5 and stop.error == pytest.approx(gap) and stop.paper_error == cuv.THETA_STOP_ERROR
+    assert top.ours == 26.5 and top.error == pytest.approx(gap)
+    assert stop.verdict.startswith("within error") and top.verdict.startswith("within error")
+    assert "between 19° and 22°" in stop.note and "between 25° and 28°" in top.note
+    # a bed that stops at 23° where 25° flows: θ_stop 24 ± 0.58 against 20 ± 1 is off
+    late = cuv.validation(tmp_path, {"theta~23": chute_case(tmp_path, "e", 23.0, status="arrested"),
+                                     "theta~25": cases["theta~25"]})
+    assert _by(late.checks, "sweep", cuv.Q_STOP).verdict.startswith("one sample: off")
+    # without both regimes, or with them the wrong way round, nothing is bracketed
+    alone = cuv.validation(tmp_path, {"theta~22": cases["theta~22"], "theta~25": cases["theta~25"]})
+    assert math.isnan(_by(alone.checks, "sweep", cuv.Q_STOP).ours)
+    assert "needs an arrested angle below a flowing one" in _by(alone.checks, "sweep", cuv.Q_STOP).note
+    assert math.isnan(cuv.bracket([25.0], [22.0])[0]) and cuv.bracket([25.0], [22.0])[2] == ""

@@ -11,8 +11,13 @@ averaging window in blocks). Per steady case it compares
 * :math:`\\sigma_{zz}` with the weight of the material above, :math:`g\\cos\\theta\\int_z^h\\rho\\,dz'` (exact);
 * the Bagnold profile :math:`u \\propto h^{3/2} - (h - z)^{3/2}` in the bulk (a shape: R² and the relative
   rms residual, no paper number);
+* how far the profile departs from the bulk's Bagnold fit within the bulk margin of base and surface, over
+  its scatter in the bulk (the paper: it departs there);
 * the bulk volume fraction (nearly uniform in the bulk) and, over the sweep, whether it is lower at the
   larger angle;
+* over the sweep's angles, where the regimes change: θ_stop between the largest arrested and the smallest
+  flowing angle (≈ 20°), the top of steady flow between the largest steady and the smallest accelerating
+  angle (≈ 24-26°);
 
 and says for every angle whether its regime (arrested, steady, accelerating) is the paper's.
 A case that was not averaged in a steady state gets NaN and the reason in each note.
@@ -28,7 +33,8 @@ import numpy as np
 import pandas as pd
 
 from granflow.registry import finite
-from granflow.validation import Check, ValidationResult, error_note, read_case, sci, time_average_errors
+from granflow.validation import (Check, ValidationResult, error_note, read_case, sci, systematic,
+                                 time_average_errors)
 
 from .analysis import bulk_mask
 
@@ -42,6 +48,12 @@ PAPER_T_C = math.pi / math.sqrt(PAPER_K_N / 0.5 - PAPER_GAMMA_N**2 / 4.0)
 THETA_STOP, STEADY_TOP = 20.0, (24.0, 26.0)
 #: largest contact overlap, fraction of the diameter, above which the record says so
 OVERLAP_LIMIT = 0.01
+Q_BAGNOLD_BASE = "Bagnold fit near the base: rms residual over the bulk's"
+Q_BAGNOLD_SURFACE = "Bagnold fit near the surface: rms residual over the bulk's"
+Q_STOP = "θ_stop: midway between the largest arrested and the smallest flowing angle"
+Q_STEADY_TOP = "top of steady flow: midway between the largest steady and the smallest accelerating angle"
+#: the paper's "≈ 20°" for θ_stop read as 20 ± 1 (SPEC.md gives no error)
+THETA_STOP_ERROR = 1.0
 #: the figures of the rung kept in the record (names of ChuteScene.figures)
 FIGURES = ["fig_profiles", "fig_stress", "fig_regimes"]
 
@@ -121,6 +133,32 @@ def bulk_phi_spread(case: ChuteCase) -> dict:
     return {"std": float(np.std(phi, ddof=1)), "min": float(phi.min()), "max": float(phi.max()), "n": int(len(phi))}
 
 
+def bagnold_departure(case: ChuteCase, where: str, width: float | None = None) -> dict:
+    """rms of :math:`u_x - u_{Bagnold}` (the bulk fit, extrapolated) over the bins within ``width`` (default: the
+    bulk margin) of the base (``where="base"``) or of the surface, over the same rms in the bulk: ``ratio``, its
+    error (each rms's from the bins' correlation-aware errors, first order), ``n`` bins near the edge."""
+    p = case.profile
+    if "u_bagnold" not in p:
+        return {"ratio": NAN, "se": NAN, "n": 0}
+    z, r = p["z"].to_numpy(float), (p["u_x"] - p["u_bagnold"]).to_numpy(float)
+    se = p["u_x_se"].to_numpy(float) if "u_x_se" in p else np.full(len(z), NAN)
+    z0, zs = case.value("z_base"), case.value("z_surface")
+    w = float(case.record["rung_knobs"]["bulk_margin"]) if width is None else width
+    near = (z >= z0) & (z < z0 + w) if where == "base" else (z > zs - w) & (z <= zs)
+
+    def rms(mask):
+        mask = mask & np.isfinite(r)
+        if not mask.any():
+            return NAN, NAN
+        value = float(np.sqrt(np.mean(r[mask] ** 2)))
+        return value, float(np.sqrt(np.nansum((r[mask] * se[mask]) ** 2)) / (mask.sum() * value)) if value else NAN
+
+    (edge, edge_se), (bulk, bulk_se) = rms(near), rms(case.bulk())
+    ratio = edge / bulk if bulk else NAN
+    return {"ratio": ratio, "se": ratio * math.hypot(edge_se / edge, bulk_se / bulk) if edge and bulk else NAN,
+            "n": int(near.sum()), "edge": edge, "bulk": bulk}
+
+
 # ------------------------------------------------------------------------- the checks
 def case_checks(case: ChuteCase, errors: dict) -> list[Check]:
     """The per-case checks (NaN, with the reason in the note, for a case without a steady average)."""
@@ -172,6 +210,22 @@ def case_checks(case: ChuteCase, errors: dict) -> list[Check]:
                         "u ∝ h^(3/2) - (h - z)^(3/2) in the bulk",
                         f"{SOURCE}: Bagnold velocity profile", case.value("bagnold_r2") if steady else NAN, NAN,
                         name, None, note=note))
+
+    margin = float(case.record["rung_knobs"]["bulk_margin"])
+    for q, where, words in ((Q_BAGNOLD_BASE, "base", "above the base"), (Q_BAGNOLD_SURFACE, "surface", "below the surface")):
+        if steady:
+            d = bagnold_departure(case, where)
+            narrow = bagnold_departure(case, where, margin - 1.0)["ratio"]
+            syst, variants = systematic(d["ratio"], {f"the {margin - 1:g} d {words}": narrow})
+            note = (f"rms of u_x − the bulk's Bagnold fit over the {d['n']} bins within {margin:g} d {words} "
+                    f"({d['edge']:.3g} √(gd)) over its rms in the bulk ({d['bulk']:.3g}); > 1: the profile departs "
+                    f"from Bagnold's there beyond its scatter in the bulk. Error: each rms's, first order, from the "
+                    f"bins' correlation-aware errors")
+        else:
+            d, syst, variants, note = {"ratio": NAN, "se": NAN}, NAN, "", why
+        checks.append(Check(q, "> 1: the profile departs from Bagnold's within a few d of base and surface",
+                            f"{SOURCE}: Bagnold velocity profile", d["ratio"], d["se"], name, (1.0, math.inf),
+                            syst=syst, variants=variants, note=note))
 
     se, enote = se_of("phi_bulk")
     if steady:
@@ -240,6 +294,36 @@ def sweep_checks(loaded: list[ChuteCase], errors: dict[str, dict]) -> list[Check
     note = (f"φ_bulk = {lo.value('phi_bulk'):.4f} ± {se_lo:.2g} at {lo.theta:g}°, {hi.value('phi_bulk'):.4f} ± "
             f"{se_hi:.2g} at {hi.theta:g}°: {words}{sig}; error: the two autocorrelation-aware errors combined")
     return [Check("bulk φ(θ_max) - φ(θ_min)", paper, source, diff, se, "sweep", None, note=note)]
+
+
+def bracket(low: list[float], high: list[float]) -> tuple[float, float, str]:
+    """Midway between the largest angle of ``low`` and the smallest of ``high`` (when it lies above), with the
+    standard deviation of a uniform spread over that gap, and the gap in words; NaN without both."""
+    if not low or not high or max(low) >= min(high):
+        return NAN, NAN, ""
+    a, b = max(low), min(high)
+    return 0.5 * (a + b), (b - a) / (2.0 * math.sqrt(3.0)), f"between {a:g}° and {b:g}°"
+
+
+def regime_checks(loaded: list[ChuteCase]) -> list[Check]:
+    """Where the regimes change across the sweep's angles (the runs' statuses): θ_stop between the largest
+    arrested and the smallest flowing angle (paper ≈ 20° for H ≈ 20-40 d), the top of steady flow between the
+    largest steady and the smallest accelerating angle (paper ≈ 24-26°)."""
+    by = {s: sorted(c.theta for c in loaded if c.status.get("status") == s) for s in ("arrested", "steady", "accelerating")}
+    flowing = sorted(by["steady"] + by["accelerating"])
+    has = ", ".join(f"{s} at {', '.join(f'{t:g}°' for t in v)}" for s, v in by.items() if v) or "no judged angle"
+    out = []
+    for q, low, high, paper, rng, err, need in (
+            (Q_STOP, by["arrested"], flowing, "≈ 20° for H ≈ 20-40 d (read as 20 ± 1°)", (THETA_STOP, THETA_STOP),
+             THETA_STOP_ERROR, "an arrested angle below a flowing one"),
+            (Q_STEADY_TOP, by["steady"], by["accelerating"], "≈ 24-26°: steady up to it, accelerating above",
+             STEADY_TOP, 0.0, "a steady angle below an accelerating one")):
+        mid, se, gap = bracket(low, high)
+        note = (f"the runs' regimes (status of each case: {has}): the change lies {gap}; ours is the middle, its "
+                f"error a uniform spread over the gap (gap/√12). H = 30 d nominal" if gap else
+                f"needs {need}; the sweep has {has}")
+        out.append(Check(q, paper, f"{SOURCE}: regimes", mid, se, "sweep", rng, paper_error=err, unit="deg", note=note))
+    return out
 
 
 # ------------------------------------------------------------------------- profiles
@@ -345,7 +429,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
     loaded = sorted((load_case(name, path) for name, path in cases.items()), key=lambda c: c.theta)
     errors = {c.name: time_average_errors("chute", c.path, c.record, c.why_not) for c in loaded}
     checks = [check for c in loaded for check in case_checks(c, errors[c.name])]
-    checks += sweep_checks(loaded, errors)
+    checks += sweep_checks(loaded, errors) + regime_checks(loaded)
     heights = [height_profile(c) for c in loaded if not c.why_not]
     profiles = {"height_profiles": pd.concat(heights, ignore_index=True)} if heights else {}
     return ValidationResult(checks=checks, profiles=profiles, figures=list(FIGURES),

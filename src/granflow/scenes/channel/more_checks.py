@@ -421,20 +421,54 @@ def mu_wall(a: ChannelAnalysis, x_start: float) -> tuple[float, float]:
     return tau / s["mean"], tau / s["mean"] ** 2 * s["mean_se"]
 
 
-def phi_pairs(cases: list) -> list[tuple]:
-    """``(lowest φ̄, highest φ̄)`` cases at each W that has two different φ̄ (cases without an analysed steady
-    profile left out), with a seed-independent name ``"<low> vs <high>"`` and a phrase for the notes."""
-    by_w: dict[float, list] = {}
+def plateau_ratio(hi: ChannelAnalysis, lo: ChannelAnalysis, scale_hi: float = 1.0, scale_lo: float = 1.0) -> dict:
+    """σ_xx's plateau (:func:`sigma_xx_change`'s mean from the first bin beyond the wall bin) of ``hi`` over
+    ``lo``'s, each over its ``scale``: ``ratio``, ``se``, the ``syst`` and ``variants`` of the plateau's start
+    (2 and 3 d_p), and the two plateaus ``hi`` and ``lo`` (unscaled)."""
+    first = float(lo.folded["x"].iloc[1])
+    s_lo, s_hi = sigma_xx_change(lo, first), sigma_xx_change(hi, first)
+    r, se = _ratio(s_hi["mean"] / scale_hi, s_hi["mean_se"] / scale_hi, s_lo["mean"] / scale_lo, s_lo["mean_se"] / scale_lo)
+    var = {f"plateau from {x0:g} d_p": _ratio(sigma_xx_change(hi, x0)["mean"] / scale_hi, 0,
+                                              sigma_xx_change(lo, x0)["mean"] / scale_lo, 0)[0]
+           for x0 in (WALL_LAYER, 3.0)}
+    syst, text = systematic(r, var)
+    return {"ratio": r, "se": se, "syst": syst, "variants": text, "hi": s_hi["mean"], "lo": s_lo["mean"]}
+
+
+def mu_wall_change(hi: ChannelAnalysis, lo: ChannelAnalysis) -> dict:
+    """:func:`mu_wall` of ``hi`` minus ``lo``'s (σ_xx's plateau from the first bin beyond the wall bin):
+    ``change``, ``se``, the ``syst`` and ``variants`` of the plateau's start (2 and 3 d_p), ``hi`` and ``lo``."""
+    first = float(lo.folded["x"].iloc[1])
+    (m_lo, m_lo_se), (m_hi, m_hi_se) = mu_wall(lo, first), mu_wall(hi, first)
+    var = {f"plateau from {x0:g} d_p": mu_wall(hi, x0)[0] - mu_wall(lo, x0)[0] for x0 in (WALL_LAYER, 3.0)}
+    syst, text = systematic(m_hi - m_lo, var)
+    return {"change": m_hi - m_lo, "se": math.hypot(m_lo_se, m_hi_se), "syst": syst, "variants": text,
+            "hi": m_hi, "lo": m_lo}
+
+
+def extreme_pairs(cases: list, fixed: str, varied: str) -> list[tuple]:
+    """``(lowest, highest)`` case of the parameter ``varied`` at each value of ``fixed`` that has two different
+    values of it (cases without an analysed steady profile left out), in the order of ``fixed``."""
+    groups: dict[float, list] = {}
     for c in cases:
         if c.analysis is not None and not c.why_not:
-            by_w.setdefault(float(c.record["parameters"]["W"]), []).append(c)
+            groups.setdefault(float(c.record["parameters"][fixed]), []).append(c)
     out = []
-    for W, group in sorted(by_w.items()):
-        group.sort(key=lambda c: float(c.record["parameters"]["phi_mean"]))
-        pl, ph = (float(c.record["parameters"]["phi_mean"]) for c in (group[0], group[-1]))
-        if pl != ph:
-            out.append((group[0], group[-1], f"{group[0].name} vs {group[-1].name}",
-                        f"φ̄ = {pl:g} and {ph:g} at W = {W:g} d_p"))
+    for _, group in sorted(groups.items()):
+        group.sort(key=lambda c: float(c.record["parameters"][varied]))
+        if float(group[0].record["parameters"][varied]) != float(group[-1].record["parameters"][varied]):
+            out.append((group[0], group[-1]))
+    return out
+
+
+def phi_pairs(cases: list) -> list[tuple]:
+    """``(lowest φ̄, highest φ̄)`` cases at each W that has two different φ̄ (:func:`extreme_pairs`), with a
+    seed-independent name ``"<low> vs <high>"`` and a phrase for the notes."""
+    out = []
+    for low, high in extreme_pairs(cases, "W", "phi_mean"):
+        pl, ph = (float(c.record["parameters"]["phi_mean"]) for c in (low, high))
+        out.append((low, high, f"{low.name} vs {high.name}",
+                    f"φ̄ = {pl:g} and {ph:g} at W = {float(low.record['parameters']['W']):g} d_p"))
     return out
 
 
@@ -477,22 +511,16 @@ def _pair_checks(low, high) -> list[Check]:
                           f"x_p = {e_hi:.3g} d_p at φ̄ = {ph:g}, {e_lo:.3g} at {pl:g}; error from the φ errors of the "
                           f"two bins each edge is interpolated between"))
 
-    first = float(lo.folded["x"].iloc[1])
-    s_lo, s_hi = sigma_xx_change(lo, first), sigma_xx_change(hi, first)
-    r, se = _ratio(s_hi["mean"], s_hi["mean_se"], s_lo["mean"], s_lo["mean_se"])
-    var = {f"plateau from {x0:g} d_p": _ratio(sigma_xx_change(hi, x0)["mean"], 0, sigma_xx_change(lo, x0)["mean"], 0)[0]
-           for x0 in (WALL_LAYER, 3.0)}
-    syst, text = systematic(r, var)
-    out.append(Check(Q_SXX_PHI, "> 1: σ_xx rises strongly with φ̄", "§3.1, figs. 6, 7(a)", r, se, name, (1.0, INF),
-                     syst=syst, variants=text,
+    p = plateau_ratio(hi, lo)
+    out.append(Check(Q_SXX_PHI, "> 1: σ_xx rises strongly with φ̄", "§3.1, figs. 6, 7(a)", p["ratio"], p["se"], name,
+                     (1.0, INF), syst=p["syst"], variants=p["variants"],
                      note=f"σ_xx's plateau (weighted line's mean beyond the wall bin, {Q_SXX!r}'s fit) = "
-                          f"{s_hi['mean']:.4g} at φ̄ = {ph:g}, {s_lo['mean']:.4g} at {pl:g} ρ_p g d_p; {INDEPENDENT}"))
+                          f"{p['hi']:.4g} at φ̄ = {ph:g}, {p['lo']:.4g} at {pl:g} ρ_p g d_p; {INDEPENDENT}"))
 
-    (m_lo, m_lo_se), (m_hi, m_hi_se) = mu_wall(lo, first), mu_wall(hi, first)
-    var = {f"plateau from {x0:g} d_p": mu_wall(hi, x0)[0] - mu_wall(lo, x0)[0] for x0 in (WALL_LAYER, 3.0)}
-    syst, text = systematic(m_hi - m_lo, var)
-    out.append(Check(Q_MU_WALL, "< 0: μ_wall falls as φ̄ rises (independent of W)", "§3.1, fig. 7(b)", m_hi - m_lo,
-                     math.hypot(m_lo_se, m_hi_se), name, (-INF, 0.0), syst=syst, variants=text,
+    m = mu_wall_change(hi, lo)
+    m_hi, m_lo = m["hi"], m["lo"]
+    out.append(Check(Q_MU_WALL, "< 0: μ_wall falls as φ̄ rises (independent of W)", "§3.1, fig. 7(b)", m["change"],
+                     m["se"], name, (-INF, 0.0), syst=m["syst"], variants=m["variants"],
                      note=f"μ_wall = τ_w/σ_xx with τ_w = g∫_0^(W/2) ρ_p φ dx (the wall shear stress that carries the "
                           f"weight in steady flow; the wall-force row measures it directly) and σ_xx's plateau: "
                           f"{m_hi:.4g} at φ̄ = {ph:g}, {m_lo:.4g} at {pl:g}; error from σ_xx's. The W-independence "

@@ -30,7 +30,7 @@ import math
 from granflow.validation import Check, systematic
 
 from .analysis import ChannelAnalysis
-from .more_checks import WALL_LAYER, _ratio, delta_error, mu_wall, sigma_xx_change
+from .more_checks import _ratio, delta_error, extreme_pairs, mu_wall_change, plateau_ratio
 
 NAN = float("nan")
 INF = float("inf")
@@ -55,16 +55,7 @@ QUANTITIES = (Q_USLIP_W, Q_UMAX_W, Q_SLIP_LENGTH, Q_SXX_W, Q_MU_WALL_W, Q_DELTA_
 def width_pairs(cases: list) -> list[tuple]:
     """``(narrowest W, widest W)`` cases at each φ̄ that has two different W (cases without an analysed
     steady profile left out)."""
-    by_phi: dict[float, list] = {}
-    for c in cases:
-        if c.analysis is not None and not c.why_not:
-            by_phi.setdefault(float(c.record["parameters"]["phi_mean"]), []).append(c)
-    out = []
-    for _, group in sorted(by_phi.items()):
-        group.sort(key=lambda c: c.analysis.W)
-        if group[0].analysis.W != group[-1].analysis.W:
-            out.append((group[0], group[-1]))
-    return out
+    return extreme_pairs(cases, "phi_mean", "W")
 
 
 def slip_length(a: ChannelAnalysis, measured: bool = False) -> tuple[float, float]:
@@ -123,26 +114,18 @@ def _pair_checks(narrow, wide) -> list[Check]:
                           f"it) = {l_hi:.3g} d_p at W = {hi.W:g}, {l_lo:.3g} d_p at {lo.W:g} (φ̄ = {phi:g}); l_s ∝ W "
                           f"gives 1, an l_s independent of W {lo.W / hi.W:.3g}. {why_wide}"))
 
-    first = float(lo.folded["x"].iloc[1])
-    s_lo, s_hi = sigma_xx_change(lo, first), sigma_xx_change(hi, first)
-    r, se = _ratio(s_hi["mean"] / hi.W, s_hi["mean_se"] / hi.W, s_lo["mean"] / lo.W, s_lo["mean_se"] / lo.W)
-    var = {f"plateau from {x0:g} d_p": _ratio(sigma_xx_change(hi, x0)["mean"] / hi.W, 0,
-                                              sigma_xx_change(lo, x0)["mean"] / lo.W, 0)[0]
-           for x0 in (WALL_LAYER, 3.0)}
-    syst, text = systematic(r, var)
-    out.append(Check(Q_SXX_W, "1: σ_xx/W varies little with W for W > 60 d_p (σ_xx ∝ W)", "§3.1, fig. 7(a)", r, se,
-                     name, (1.0, 1.0), syst=syst, variants=text,
-                     note=f"σ_xx's plateau (weighted line's mean beyond the wall bin) = {s_hi['mean']:.4g} at W = "
-                          f"{hi.W:g}, {s_lo['mean']:.4g} at {lo.W:g} ρ_p g d_p (φ̄ = {phi:g}); bins taken as "
+    p = plateau_ratio(hi, lo, hi.W, lo.W)
+    out.append(Check(Q_SXX_W, "1: σ_xx/W varies little with W for W > 60 d_p (σ_xx ∝ W)", "§3.1, fig. 7(a)",
+                     p["ratio"], p["se"], name, (1.0, 1.0), syst=p["syst"], variants=p["variants"],
+                     note=f"σ_xx's plateau (weighted line's mean beyond the wall bin) = {p['hi']:.4g} at W = "
+                          f"{hi.W:g}, {p['lo']:.4g} at {lo.W:g} ρ_p g d_p (φ̄ = {phi:g}); bins taken as "
                           f"independent, each with its correlation-aware error"))
 
-    (m_lo, m_lo_se), (m_hi, m_hi_se) = mu_wall(lo, first), mu_wall(hi, first)
-    var = {f"plateau from {x0:g} d_p": mu_wall(hi, x0)[0] - mu_wall(lo, x0)[0] for x0 in (WALL_LAYER, 3.0)}
-    syst, text = systematic(m_hi - m_lo, var)
-    out.append(Check(Q_MU_WALL_W, "0: μ_wall independent of W", "§3.1, fig. 7(b)", m_hi - m_lo,
-                     math.hypot(m_lo_se, m_hi_se), name, (0.0, 0.0), syst=syst, variants=text,
-                     note=f"μ_wall = τ_w/σ_xx (τ_w = g∫_0^(W/2) ρ_p φ dx, σ_xx's plateau) = {m_hi:.4g} at W = {hi.W:g}, "
-                          f"{m_lo:.4g} at {lo.W:g} (φ̄ = {phi:g}); error from σ_xx's"))
+    m = mu_wall_change(hi, lo)
+    out.append(Check(Q_MU_WALL_W, "0: μ_wall independent of W", "§3.1, fig. 7(b)", m["change"], m["se"], name,
+                     (0.0, 0.0), syst=m["syst"], variants=m["variants"],
+                     note=f"μ_wall = τ_w/σ_xx (τ_w = g∫_0^(W/2) ρ_p φ dx, σ_xx's plateau) = {m['hi']:.4g} at W = "
+                          f"{hi.W:g}, {m['lo']:.4g} at {lo.W:g} (φ̄ = {phi:g}); error from σ_xx's"))
 
     d_lo, d_hi = lo.scales.delta_095 / lo.W, hi.scales.delta_095 / hi.W
     r, se = _ratio(d_hi, delta_error(hi) / hi.W, d_lo, delta_error(lo) / lo.W)

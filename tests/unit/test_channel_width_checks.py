@@ -121,3 +121,19 @@ def test_every_row_names_a_result_of_the_paper():
     pending = yaml.safe_load(Path(wc.__file__).with_name("paper_results_pending.yaml").read_text())["compared_by"]
     assert set(pending) <= ids
     assert {q for qs in pending.values() for q in qs} == set(wc.QUANTITIES)
+
+
+def test_the_speeds_measurement_choices_enter_the_ratios_syst(tmp_path):
+    narrow, wide = paper_like(tmp_path, 100.0), paper_like(tmp_path, 150.0)
+    # the same choice read on both widths: the wall bin read at 1 d_p moves u_slip by +4 % at W = 150, +1 % at 100
+    narrow.variants = {"u_slip": {"wall bin 1 d_p": narrow.analysis.scales.u_slip * 1.01,
+                                  "window first half": (narrow.analysis.scales.u_slip, 0.01)}}
+    wide.variants = {"u_slip": {"wall bin 1 d_p": wide.analysis.scales.u_slip * 1.04,
+                                "window first half": (wide.analysis.scales.u_slip, 0.01),
+                                "only here": 1.0}}
+    assert set(wc.variant_ratios(wide, narrow, "u_slip")) == {"wall bin 1 d_p", "window first half"}
+    checks = rows([narrow, wide])
+    central = checks[wc.Q_USLIP_W].ours
+    assert checks[wc.Q_USLIP_W].syst == pytest.approx(central * (1.04 / 1.01 - 1.0), rel=1e-6)
+    assert "wall bin 1 d_p" in checks[wc.Q_USLIP_W].variants and "only here" not in checks[wc.Q_USLIP_W].variants
+    assert math.isnan(checks[wc.Q_UMAX_W].syst)                                # no u_max variants given

@@ -32,7 +32,7 @@ BIN_WIDTHS = (0.5, 2.0)
 #: wall bin widths tried besides the paper's 1.5 d_p, d_p
 WALL_BIN_WIDTHS = (1.0, 2.0)
 #: the headlines that get variants: analysis scalar -> how to read it from a ChannelAnalysis
-HEADLINES = ("ratio", "fit_exponent", "delta_095_over_W", "plug_phi")
+HEADLINES = ("ratio", "fit_exponent", "delta_095_over_W", "plug_phi", "u_slip", "u_max")
 
 
 def _read(a, key: str) -> tuple[float, float]:
@@ -43,6 +43,8 @@ def _read(a, key: str) -> tuple[float, float]:
         return a.fit.a, a.fit.a_se
     if key == "delta_095_over_W":
         return a.scales.delta_095 / a.W, float("nan")
+    if key in ("u_slip", "u_max"):   # the speeds themselves, for the rows across W (.width_checks)
+        return getattr(a.scales, key), getattr(a.scales, f"{key}_se")
     return plug_phi(a)
 
 

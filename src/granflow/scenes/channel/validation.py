@@ -26,7 +26,7 @@ Units: :math:`d_p`, :math:`\\sqrt{d_p/g}`, :math:`\\rho_p = 1` (as the analysis 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -77,6 +77,8 @@ class ChannelCase:
     scalars: dict
     why_not: str
     analysis: ChannelAnalysis | None = None
+    #: the headlines measured other ways (:func:`.measurement.headline_variants`), once the record reads them
+    variants: dict = field(default_factory=dict)
 
 
 def load_case(name: str, path: Path) -> ChannelCase:
@@ -417,6 +419,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
         variants = {}
         if case.analysis is not None and all((case.path / "run" / d).exists() for d in case.status["dumps"]):
             variants = headline_variants(case.path, case.record, case.analysis)
+            case.variants = variants
         checks += case_checks(case, time_average_errors("channel", case.path, case.record, case.why_not), variants)
         if case.analysis is not None:
             velocity.append(velocity_profile(case))

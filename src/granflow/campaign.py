@@ -2,7 +2,8 @@
 
 :func:`load_campaign` runs the phases in order, each in its own module and each calling only
 modules below it: it reads the file and its overrides (:mod:`granflow.config`), then checks the
-campaign's own keys (:mod:`granflow.schema`), resolves and checks each scene with its sweeps
+campaign's own keys (:mod:`granflow.schema`) and its ``results_dir`` against the project root
+(:func:`check_results_dir`), resolves and checks each scene with its sweeps
 (:mod:`granflow.scene_files`), holds the sweep points to the size and CPU-hour limits
 (:mod:`granflow.resources`, where cases are priced), then builds the cost study (:mod:`granflow.cost`,
 whose runs meet the same limits one by one). :func:`validate_campaign` runs the same checking
@@ -18,7 +19,7 @@ from .config import apply_overrides, load_yaml
 from .cost import cost_studies
 from .resources import check_campaign_limits
 from .scene_files import check_scenes
-from .schema import check_campaign_keys
+from .schema import check_campaign_keys, check_results_dir
 
 
 def validate_campaign(data: dict, root: Path, source: str = "config") -> dict:
@@ -28,7 +29,8 @@ def validate_campaign(data: dict, root: Path, source: str = "config") -> dict:
     scene's validated content under ``scenes.<name>.scene`` and, with a ``cost``
     section, the studies under ``cost_studies``. The phases of :func:`load_campaign`, after its reading.
     """
-    data = check_campaign_keys(data, root, source)
+    data = check_campaign_keys(data, source)
+    check_results_dir(data.get("results_dir", "results"), root, source)
     points = check_scenes(data, root, source)
     check_campaign_limits(data, points, source)
     if data.get("cost"):
@@ -48,7 +50,8 @@ def load_campaign(path: str | Path, overrides: Iterable[str] = (), root: Path | 
     source = str(path)
     data = apply_overrides(load_yaml(path), overrides)
     root = Path(root) if root else Path.cwd()
-    data = check_campaign_keys(data, root, source)
+    data = check_campaign_keys(data, source)
+    check_results_dir(data.get("results_dir", "results"), root, source)
     points = check_scenes(data, root, source)
     check_campaign_limits(data, points, source)
     if data.get("cost"):

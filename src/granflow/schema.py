@@ -4,8 +4,9 @@ Two kinds of file are validated against JSON schemas in ``config/schema``: the c
 (``config/config.yaml``) and the scene files (``config/scenes/<scene>.yaml``). Every refusal is a
 :class:`~granflow.yamlio.ConfigError` whose message names the dotted key, the offending value and
 the allowed range (:func:`format_error`), so a user can fix the file without reading the schema.
-A campaign's own keys are checked here (:func:`check_campaign_keys`), its ``results_dir`` with them, and
-each scene's sweep against that scene's schema once the scene is resolved (:func:`check_sweep`).
+A campaign's own keys are checked here (:func:`check_campaign_keys`; then its ``results_dir`` against the
+project root, :func:`check_results_dir`), and each scene's sweep against that scene's schema once the scene
+is resolved (:func:`check_sweep`).
 """
 from __future__ import annotations
 
@@ -128,12 +129,11 @@ def require(cond: bool, msg: str) -> None:
         raise ConfigError(msg)
 
 
-def check_campaign_keys(data: dict, root: Path, source: str = "config") -> dict:
-    """The campaign's own keys: a copy of ``data`` validated against the campaign schema, its
-    ``results_dir`` checked (:func:`check_results_dir`, relative to ``root``). Returns the copy."""
+def check_campaign_keys(data: dict, source: str = "config") -> dict:
+    """The campaign's own keys: a copy of ``data`` validated against the campaign schema. Returns the
+    copy; its ``results_dir`` is judged next, against the project root (:func:`check_results_dir`)."""
     data = copy.deepcopy(data)
     validate(data, "config", source=source)
-    check_results_dir(data.get("results_dir", "results"), root, source)
     return data
 
 

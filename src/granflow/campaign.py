@@ -12,14 +12,15 @@ every refusal is a :class:`granflow.config.ConfigError` naming the key, the valu
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Iterable
 
-from .config import apply_overrides, load_yaml
+from .config import ConfigError, apply_overrides, load_yaml
 from .cost import cost_studies
 from .resources import check_campaign_limits
 from .scene_files import check_scenes
-from .schema import check_campaign_keys, check_results_dir
+from .schema import check_campaign_keys
 
 
 def validate_campaign(data: dict, root: Path, source: str = "config") -> dict:
@@ -57,3 +58,33 @@ def load_campaign(path: str | Path, overrides: Iterable[str] = (), root: Path | 
     if data.get("cost"):
         data["cost_studies"] = cost_studies(data, root, source)
     return data
+
+
+def check_results_dir(value: str, root: Path, source: str = "config") -> None:
+    """Refuse a relative ``results_dir`` that leads out of the project root ``root`` (``..``,
+    ``../x``, ``a/../../b``); an absolute path is the way to write elsewhere. Judged on the
+    path as written, so a ``results`` symlink to a scratch disk stays allowed. A ``results_dir``
+    that is (or lies under) something other than a directory, e.g. a regular file, is refused too."""
+    _check_results_is_a_directory(value, root, source)
+    if Path(value).is_absolute():
+        return
+    norm = os.path.normpath(value)
+    if norm == os.pardir or norm.startswith(os.pardir + os.sep):
+        where = os.path.normpath(os.path.join(Path(root).absolute(), value))
+        raise ConfigError(f"{source}: results_dir = {value!r} resolves to {where}, outside the project root "
+                          f"{Path(root).absolute()}: allowed a relative path that stays inside the project; "
+                          f"give an absolute path to write elsewhere")
+
+
+def _check_results_is_a_directory(value: str, root: Path, source: str) -> None:
+    """Refuse a ``results_dir`` whose nearest existing part (itself, or the parent it would be made
+    in) is not a directory: the workflow could not make its case folders there."""
+    where = Path(value) if Path(value).is_absolute() else Path(root).absolute() / value
+    for part in (where, *where.parents):
+        if part.exists():
+            if not part.is_dir():
+                kind = "a regular file" if part.is_file() else "not a directory"
+                what = "" if part == where else f" (its part {part})"
+                raise ConfigError(f"{source}: results_dir = {value!r}{what} is {kind}: allowed a directory, "
+                                  f"or a path where one can be made")
+            return

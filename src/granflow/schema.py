@@ -5,15 +5,14 @@ Two kinds of file are validated against JSON schemas in ``config/schema``: the c
 :class:`~granflow.yamlio.ConfigError` whose message names the dotted key, the offending value and
 the allowed range (:func:`format_error`), so a user can fix the file without reading the schema.
 A campaign's own keys are checked here (:func:`check_campaign_keys`; then its ``results_dir`` against the
-project root, :func:`check_results_dir`), and each scene's sweep against that scene's schema once the scene
-is resolved (:func:`check_sweep`).
+project root, :func:`granflow.campaign.check_results_dir`), and each scene's sweep against that scene's schema
+once the scene is resolved (:func:`check_sweep`).
 """
 from __future__ import annotations
 
 import copy
 import functools
 import math
-import os
 from pathlib import Path
 from typing import Iterable
 
@@ -131,40 +130,11 @@ def require(cond: bool, msg: str) -> None:
 
 def check_campaign_keys(data: dict, source: str = "config") -> dict:
     """The campaign's own keys: a copy of ``data`` validated against the campaign schema. Returns the
-    copy; its ``results_dir`` is judged next, against the project root (:func:`check_results_dir`)."""
+    copy; its ``results_dir`` is judged next, against the project root
+    (:func:`granflow.campaign.check_results_dir`)."""
     data = copy.deepcopy(data)
     validate(data, "config", source=source)
     return data
-
-
-def check_results_dir(value: str, root: Path, source: str = "config") -> None:
-    """Refuse a relative ``results_dir`` that leads out of the project root ``root`` (``..``,
-    ``../x``, ``a/../../b``); an absolute path is the way to write elsewhere. Judged on the
-    path as written, so a ``results`` symlink to a scratch disk stays allowed. A ``results_dir``
-    that is (or lies under) something other than a directory, e.g. a regular file, is refused too."""
-    _check_results_is_a_directory(value, root, source)
-    if Path(value).is_absolute():
-        return
-    norm = os.path.normpath(value)
-    if norm == os.pardir or norm.startswith(os.pardir + os.sep):
-        where = os.path.normpath(os.path.join(Path(root).absolute(), value))
-        raise ConfigError(f"{source}: results_dir = {value!r} resolves to {where}, outside the project root "
-                          f"{Path(root).absolute()}: allowed a relative path that stays inside the project; "
-                          f"give an absolute path to write elsewhere")
-
-
-def _check_results_is_a_directory(value: str, root: Path, source: str) -> None:
-    """Refuse a ``results_dir`` whose nearest existing part (itself, or the parent it would be made
-    in) is not a directory: the workflow could not make its case folders there."""
-    where = Path(value) if Path(value).is_absolute() else Path(root).absolute() / value
-    for part in (where, *where.parents):
-        if part.exists():
-            if not part.is_dir():
-                kind = "a regular file" if part.is_file() else "not a directory"
-                what = "" if part == where else f" (its part {part})"
-                raise ConfigError(f"{source}: results_dir = {value!r}{what} is {kind}: allowed a directory, "
-                                  f"or a path where one can be made")
-            return
 
 
 def check_sweep(name: str, sweep: dict, axes: Iterable[SweepAxis], source: str) -> None:

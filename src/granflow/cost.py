@@ -22,8 +22,9 @@ import copy
 import math
 from pathlib import Path
 
-from . import registry
 from .config import ConfigError
+from .declarations import Knob
+from .registry import Scene, names, refusal, refused, scenes
 from .resources import check_size
 from .scene_files import load_scene, validate_scene
 
@@ -74,21 +75,24 @@ def base_scene(scene: dict, study: dict, source: str) -> dict:
     return validate_scene(out, source=f"{source}.set")
 
 
-def knob_base_value(scene_name: str, scene: dict, rung: str, knob: str) -> float:
-    """The base case's value of ``knob`` (1 for a size factor)."""
-    k = registry.get(scene_name).knobs[knob]
-    return 1.0 if k.mode == "scale" else float(_get(scene, k.keys[0].format(r=rung)))
+def knob_base_value(knob: Knob, scene: dict, rung: str) -> float:
+    """The base case's value of the knob declared as ``knob`` (1 for a size factor)."""
+    return 1.0 if knob.mode == "scale" else float(_get(scene, knob.keys[0].format(r=rung)))
+
+
+def with_knob(knob: Knob, scene: dict, rung: str, value: float) -> dict:
+    """A copy of the base scene with the knob declared as ``knob`` at ``value``."""
+    out = copy.deepcopy(scene)
+    for key in knob.keys:
+        key = key.format(r=rung)
+        new = float(value) * _get(scene, key) if knob.mode == "scale" else float(value)
+        _put(out, key, new)
+    return out
 
 
 def apply_knob(scene_name: str, scene: dict, rung: str, knob: str, value: float) -> dict:
-    """A copy of the base scene with one knob at ``value``."""
-    out = copy.deepcopy(scene)
-    k = registry.get(scene_name).knobs[knob]
-    for key in k.keys:
-        key = key.format(r=rung)
-        new = float(value) * _get(scene, key) if k.mode == "scale" else float(value)
-        _put(out, key, new)
-    return out
+    """A copy of the base scene of the registered scene ``scene_name`` with one knob at ``value``."""
+    return with_knob(scenes()[scene_name].knobs[knob], scene, rung, value)
 
 
 class CostStudy:
@@ -101,21 +105,25 @@ class CostStudy:
         The validated scene file.
     study : dict
         The campaign's ``cost.scenes.<scene>`` entry.
+    declared : Scene, optional
+        The scene's declaration (its knobs), as :func:`cost_studies` resolved it; the registry's if not given.
     """
 
-    def __init__(self, scene_name: str, scene: dict, study: dict, source: str = "cost"):
+    def __init__(self, scene_name: str, scene: dict, study: dict, source: str = "cost",
+                 declared: Scene | None = None):
         self.name = scene_name
         self.source = f"{source}.scenes.{scene_name}"
         self.rung = study["base_rung"]
         self.study = study
         self.base = base_scene(scene, study, self.source)
         self.knobs = {k: [float(v) for v in vals] for k, vals in study["knobs"].items() if vals}
-        known = registry.get(scene_name).knobs
+        self.declared = scenes()[scene_name] if declared is None else declared
+        known = self.declared.knobs
         for knob in self.knobs:
             if knob not in known:
                 raise ConfigError(f"{self.source}.knobs.{knob} is not allowed: the {scene_name} scene has the knobs "
                                   f"{', '.join(known)}")
-        self.base_values = {k: knob_base_value(scene_name, self.base, self.rung, k) for k in self.knobs}
+        self.base_values = {k: knob_base_value(known[k], self.base, self.rung) for k in self.knobs}
         for knob, values in self.knobs.items():
             b = self.base_values[knob]
             if not any(math.isclose(v, b, rel_tol=1e-9) for v in values):
@@ -123,11 +131,11 @@ class CostStudy:
                                   f"base case's value {b:g} (from rung {self.rung} after {self.source}.set)")
         for knob in POST_KNOBS:  # analysis settings: each value within the bounds of the scene key it sets
             for v in self.knobs.get(knob, []):
-                validate_scene(apply_knob(scene_name, self.base, self.rung, knob, v),
+                validate_scene(with_knob(known[knob], self.base, self.rung, v),
                                source=f"{self.source}.knobs.{knob} (value {v:g})")
         if "t_average" in self.knobs:
             longest = max(self.knobs["t_average"])
-            self.base_run_scene = apply_knob(scene_name, self.base, self.rung, "t_average", longest)
+            self.base_run_scene = with_knob(known["t_average"], self.base, self.rung, longest)
         else:
             self.base_run_scene = self.base
         self.scenes = {"base": self.base_run_scene}
@@ -137,7 +145,7 @@ class CostStudy:
             for v in values:
                 if self.is_base(knob, v):
                     continue
-                variant = apply_knob(scene_name, self.base_run_scene, self.rung, knob, v)
+                variant = with_knob(known[knob], self.base_run_scene, self.rung, v)
                 self.scenes[self.run_name(knob, v)] = validate_scene(
                     variant, source=f"{self.source}.knobs.{knob} (value {v:g})")
 
@@ -175,15 +183,15 @@ class CostStudy:
             t_average = value
         post = {}
         if knob == "bin_width":
-            keys = registry.get(self.name).knobs["bin_width"].keys
+            keys = self.declared.knobs["bin_width"].keys
             post = {k.format(r=self.rung): value for k in keys}
         return {"name": name, "knob": knob, "value": value, "run": run, "t_average": t_average, "post": post}
 
     def finest(self, knob: str) -> str:
-        return registry.get(self.name).knobs[knob].finest
+        return self.declared.knobs[knob].finest
 
     def unit(self, knob: str) -> str:
-        return registry.get(self.name).knobs[knob].unit
+        return self.declared.knobs[knob].unit
 
 
 def post_record(record: dict, post: dict) -> dict:
@@ -208,27 +216,28 @@ def cost_studies(data: dict, root: Path, source: str) -> dict:
 
     studies = {}
     for name, study in (data["cost"].get("scenes") or {}).items():
-        if name not in registry.names() and name not in registry.refused():
+        if name not in names() and name not in refused():
             raise ConfigError(f"{source}: cost.scenes.{name} is not allowed: allowed one of "
-                              f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
+                              f"{', '.join(map(repr, names()))} (the registered scenes)")
         if not study.get("enabled", True):
             continue
-        if name in registry.refused():
-            raise registry.refusal(name, f"{source}: cost.scenes.{name} is enabled, but the scene is refused: "
-                                         f"{registry.refused()[name]}")
-        if not registry.get(name).gives("cost_study"):
+        if name in refused():
+            raise refusal(name, f"{source}: cost.scenes.{name} is enabled, but the scene is refused: "
+                                f"{refused()[name]}")
+        declared = scenes()[name]  # registered, not refused: its declaration, for the study and its preflight
+        if not declared.gives("cost_study"):
             raise ConfigError(f"{source}: cost.scenes.{name} is not allowed: the {name} scene declares no cost "
                               f"study (it needs knobs, headline and observables(); granflow.registry.OPTIONAL): "
                               f"allowed no cost.scenes.{name} entry, or enabled: false")
         sc = data.get("scenes", {}).get(name) or {}
         scene_path = Path(sc.get("scene_file") or f"config/scenes/{name}.yaml")
         scene = sc.get("scene") or load_scene(scene_path if scene_path.is_absolute() else root / scene_path)
-        cs = CostStudy(name, scene, study, source=f"{source}: cost")
+        cs = CostStudy(name, scene, study, source=f"{source}: cost", declared=declared)
         for run, variant in cs.scenes.items():
             check_size(name, variant, cs.rung, None, data, source,
                        f"cost.scenes.{name} run {run!r} (rung {cs.rung})")
             try:
-                registry.get(name).parameters(variant, cs.rung)  # preflight: time step, feasibility
+                declared.parameters(variant, cs.rung)  # preflight: time step, feasibility
             except (PreflightError, ValueError) as exc:
                 raise ConfigError(f"{source}: cost.scenes.{name} run {run!r} is not allowed: {exc}") from None
         studies[name] = cs
@@ -278,7 +287,7 @@ def prefix_segments(segments: list[dict], t_average: float, t_segment: float) ->
 def paper_reference(scene_name: str, scene: dict) -> dict | None:
     """Particle count and simulated time of the paper rung for the study's case (for the extrapolation);
     None for a scene that declares no :meth:`~granflow.registry.Scene.paper_reference` (no extrapolation)."""
-    declared = registry.get(scene_name)
+    declared = scenes()[scene_name]
     return declared.paper_reference(scene) if declared.gives("paper_reference") else None
 
 

@@ -53,8 +53,8 @@ def _put(tree: dict, dotted: str, value) -> None:
     node[parts[-1]] = value
 
 
-def base_scene(scene: dict, study: dict, source: str) -> dict:
-    """The scene file with the study's ``set`` changes applied, validated like the file.
+def apply_set(scene: dict, study: dict, source: str) -> dict:
+    """The scene file with the study's ``set`` changes applied, not yet validated (:func:`base_scene`).
 
     The base run averages for the longest ``t_average`` of the knob list. The study writes no
     particle snapshots (effect ``snapshots``): its runs are timed, and images are not read.
@@ -72,7 +72,12 @@ def base_scene(scene: dict, study: dict, source: str) -> dict:
             raise ConfigError(f"{source}.set.{key} = {value!r} is not allowed: {key!r} is not a key of the "
                               f"{scene['scene']} scene file") from None
         _put(out, key, value)
-    return validate_scene(out, source=f"{source}.set")
+    return out
+
+
+def base_scene(scene: dict, study: dict, source: str) -> dict:
+    """The scene file with the study's ``set`` changes applied (:func:`apply_set`), validated like the file."""
+    return validate_scene(apply_set(scene, study, source), source=f"{source}.set")
 
 
 def knob_base_value(knob: Knob, scene: dict, rung: str) -> float:
@@ -98,6 +103,9 @@ def apply_knob(scene_name: str, scene: dict, rung: str, knob: str, value: float)
 class CostStudy:
     """Runs and points of one scene's study.
 
+    Its scenes (the base, each post-processing knob's setting, each run) are built one at a time,
+    each validated like the scene file before the next is built (:meth:`_build`).
+
     Parameters
     ----------
     scene_name : str
@@ -115,13 +123,22 @@ class CostStudy:
         self.source = f"{source}.scenes.{scene_name}"
         self.rung = study["base_rung"]
         self.study = study
-        self.base = base_scene(scene, study, self.source)
-        self.knobs = {k: [float(v) for v in vals] for k, vals in study["knobs"].items() if vals}
-        self.declared = scenes()[scene_name] if declared is None else declared
+        for built, where in self._build(scene, declared):
+            validate_scene(built, source=where)
+
+    def _build(self, scene: dict, declared: Scene | None):
+        """Build the study's scenes, yielding each as it is built with the source its refusals name: the
+        base (the scene file after ``set``), each setting of a post-processing knob, then each run of a
+        simulation knob. The caller validates each before this goes on, so the knobs' base values are
+        read from a base that is known to be valid."""
+        self.base = apply_set(scene, self.study, self.source)
+        yield self.base, f"{self.source}.set"
+        self.knobs = {k: [float(v) for v in vals] for k, vals in self.study["knobs"].items() if vals}
+        self.declared = scenes()[self.name] if declared is None else declared
         known = self.declared.knobs
         for knob in self.knobs:
             if knob not in known:
-                raise ConfigError(f"{self.source}.knobs.{knob} is not allowed: the {scene_name} scene has the knobs "
+                raise ConfigError(f"{self.source}.knobs.{knob} is not allowed: the {self.name} scene has the knobs "
                                   f"{', '.join(known)}")
         self.base_values = {k: knob_base_value(known[k], self.base, self.rung) for k in self.knobs}
         for knob, values in self.knobs.items():
@@ -131,8 +148,7 @@ class CostStudy:
                                   f"base case's value {b:g} (from rung {self.rung} after {self.source}.set)")
         for knob in POST_KNOBS:  # analysis settings: each value within the bounds of the scene key it sets
             for v in self.knobs.get(knob, []):
-                validate_scene(with_knob(known[knob], self.base, self.rung, v),
-                               source=f"{self.source}.knobs.{knob} (value {v:g})")
+                yield with_knob(known[knob], self.base, self.rung, v), f"{self.source}.knobs.{knob} (value {v:g})"
         if "t_average" in self.knobs:
             longest = max(self.knobs["t_average"])
             self.base_run_scene = with_knob(known["t_average"], self.base, self.rung, longest)
@@ -146,8 +162,8 @@ class CostStudy:
                 if self.is_base(knob, v):
                     continue
                 variant = with_knob(known[knob], self.base_run_scene, self.rung, v)
-                self.scenes[self.run_name(knob, v)] = validate_scene(
-                    variant, source=f"{self.source}.knobs.{knob} (value {v:g})")
+                self.scenes[self.run_name(knob, v)] = variant
+                yield variant, f"{self.source}.knobs.{knob} (value {v:g})"
 
     # ------------------------------------------------------------------ names
     def is_base(self, knob: str, value: float) -> bool:

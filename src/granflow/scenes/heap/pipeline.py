@@ -36,7 +36,7 @@ def mixture_mean_diameter(species: list[dict]) -> float:
 
 
 def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float, float] | None = None,
-                  record: dict | None = None) -> tuple[dict, dict]:
+                  record: dict | None = None, depth_and_gap: bool = True) -> tuple[dict, dict]:
     """Free surface, moving-frame kinematics and scalings of a finished heap case.
 
     Two passes over the dumps of the averaging window: the free surface of every
@@ -45,12 +45,16 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
     Bins are the rung's ``bin_dx``, ``bin_dz_phi`` and ``bin_dz_u`` times the
     mixture's number-mean diameter. ``t_window`` keeps the frames (and thermo rows)
     of that part of the averaging window, timed from its first frame; ``record``
-    replaces ``params.json`` (e.g. other bin widths).
+    replaces ``params.json`` (e.g. other bin widths). ``depth_and_gap`` adds φ in depth
+    (the static bed, φ(z) from the bed to above the surface, the surface with the cutoffs
+    0.1 and 0.5: :mod:`granflow.scenes.heap.analysis.phi`) and the slices of the gap
+    (:mod:`granflow.scenes.heap.analysis.gap`); the headline numbers do not use them.
 
     Returns
     -------
     tables : dict of DataFrame
-        ``per_x, profile, collapse, surface, alpha_t, rise_by_x, phi_columns, deposit``.
+        ``per_x, profile, collapse, surface, alpha_t, rise_by_x, phi_columns, deposit``, and with
+        ``depth_and_gap`` ``static_bed, phi_profile, surface_cutoff, gap_surface_velocity, deposit_gap``.
     scalars : dict
     """
     import granflow.scenes.heap.analysis as hp
@@ -94,8 +98,18 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
                                    hp.uniform_edges(-15 * d_bar, 2 * d_bar, dz_u),
                                    geometry.T, n_types=len(species), n_blocks=n_blocks)
     acc.prepare()
-    for frame in frames:
+    if depth_and_gap:  # φ in thin bins deep into the bed and high above it; the kinematics of the gap's slices
+        phi_acc = hp.phi_profile_accumulator(moving.L, dx, dz_phi, d_bar, geometry.T, len(species))
+        gap = hp.GapKinematics(acc.x_edges, acc.z_edges, geometry.T, n_types=len(species), n_blocks=n_blocks)
+        gap.prepare()
+    tilt_free = []  # each frame's surface with the cutoffs 0.1 and 0.5, the columns' tilt removed
+    for frame, zs in zip(frames, z_s):
         hp.accumulate_frame(acc, frame, moving, dt)
+        if depth_and_gap:
+            hp.accumulate_frame(phi_acc, frame, moving, dt)
+            gap.accumulate(frame, moving, dt)
+            tilt_free.append(hp.tilt_free_spans(frame.position, frame.radius, zs, x_edges, geometry.T, fit.alpha_deg,
+                                                dz_phi, d_bar))
     # where the particles fed in the window's first half came to rest, and how far they flew over the heap
     travel = hp.fed_travel(frames, x_lab, z_s, geometry, len(species), d_large)
     del frames
@@ -131,6 +145,12 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
     else:
         deposit = pd.DataFrame(columns=["x_lab", "c_s", "n"])
         deposit_variants = pd.DataFrame(columns=["variant", "slab", "x_lab", "c_s", "n", "volume"])
+    extra_tables = {}
+    if depth_and_gap:
+        extra_tables, extra = _phi_and_gap(
+            phis, z_s, tilt_free, x_edges, z_edges, geometry, fit, moving, phi_acc, gap.conclude(), per_x, scalars,
+            last, (float(t[0]), float(t[-1])), dx, d_bar, phi_c, len(species))
+        scalars.update(extra)
     requested = record["case"]["feed_rate"]
     tol = record["protocol"]["feed_rate_tol"]
     spread = fit.rise_by_x.loc[fit.rise_by_x["in_fit"].astype(bool), "v_r"]
@@ -154,15 +174,40 @@ def heap_analysis(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[float
     tables = {"per_x": per_x, "profile": profile, "collapse": collapsed,
               "surface": hp.surface_table(t, x_lab, z_s), "alpha_t": fit.alpha_t, "rise_by_x": fit.rise_by_x,
               "phi_columns": hp.phi_columns_table(np.mean(phis, axis=0), x_edges, z_edges), "deposit": deposit,
-              "deposit_variants": deposit_variants}
+              "deposit_variants": deposit_variants, **extra_tables}
     return tables, scalars
+
+
+def _phi_and_gap(phis, z_s, tilt_free, x_edges, z_edges, geometry, fit, moving, phi_acc, gap_profiles, per_x, scalars,
+                 last, window, dx, d_bar, phi_c, n_types) -> tuple[dict, dict]:
+    """The tables of φ in depth and of the gap's slices, and their central numbers as scalars (the
+    record's rows read the tables: :mod:`granflow.scenes.heap.phi_checks`, :mod:`granflow.scenes.heap.gap_checks`)."""
+    import granflow.scenes.heap.analysis as hp
+
+    delta = scalars.get("delta_mean", float("nan"))
+    tables = {"surface_cutoff": hp.surface_cutoff_table(phis, x_edges, z_edges, tilt_free=np.vstack(tilt_free))}
+    tables["static_bed"] = (hp.static_bed_table(phis, z_s, x_edges, z_edges, geometry, delta=delta, d_bar=d_bar,
+                                                alpha_deg=fit.alpha_deg) if np.isfinite(delta) else
+                            pd.DataFrame(columns=["top_over_delta", "depth_lo", "depth_hi", "x_lab", "phi", "n_frames"]))
+    base = hp.base_height(moving, geometry, window[0], phi_acc.x_edges)
+    tables["phi_profile"] = hp.phi_profile_table(phi_acc.conclude(), base, phi_c)
+    offsets = per_x.set_index("x")["z_surface_local"] if scalars.get("origin") == "local" else None
+    tables["gap_surface_velocity"] = hp.gap_surface_velocity(gap_profiles, per_x, offsets)
+    if n_types == 2 and np.isfinite(delta):
+        tables["deposit_gap"] = hp.deposit_gap(last.position, last.radius, last.type, fit, geometry, *window, delta, dx)
+    else:
+        tables["deposit_gap"] = pd.DataFrame(columns=["variant", "slice", "slab", "x_lab", "c_s", "n", "volume"])
+    phi_bed, phi_bed_se, _ = hp.static_bed_phi(tables["static_bed"])
+    cut = hp.surface_cutoff_max(tables["surface_cutoff"], hp.surface_fit_range(geometry, dx), d_bar)
+    return tables, {"phi_static_bed": phi_bed, "phi_static_bed_se": phi_bed_se,
+                    "surface_cutoff_span_max_over_d": cut["value"], "phi_c_range": list(hp.PHI_C_RANGE)}
 
 
 def heap_observables(case_dir: str | Path, record: dict, t_window=None) -> dict:
 
     out = {}  # the scene fills what is not measured with NaN
     try:
-        _, s = heap_analysis(case_dir, t_window=t_window, record=record)
+        _, s = heap_analysis(case_dir, t_window=t_window, record=record, depth_and_gap=False)  # headlines only
     except (ValueError, np.linalg.LinAlgError):
         return out
     out.update({"alpha": _finite(s.get("alpha_deg")), "delta_over_d": _finite(s.get("delta_over_d")),

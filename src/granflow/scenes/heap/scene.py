@@ -20,7 +20,8 @@ FIGURE_NAMES = (
 )
 
 #: analysis tables of a case, in the order the figures read them
-TABLES = ("per_x", "profile", "collapse", "surface", "alpha_t", "rise_by_x", "phi_columns", "deposit", "deposit_variants")
+TABLES = ("per_x", "profile", "collapse", "surface", "alpha_t", "rise_by_x", "phi_columns", "deposit", "deposit_variants",
+          "static_bed", "phi_profile", "surface_cutoff", "gap_surface_velocity", "deposit_gap")
 
 
 class HeapScene(Scene):

@@ -5,3 +5,5 @@ from .layer import local_surface, shift_to_surface, ExponentialDepth, delta_expo
 from .deposit import deposit_concentration, deposit_contrast, deposit_variants, deposit_contrast_error, DEPOSIT_CENTRAL, DEPOSIT_SLABS  # noqa: F401
 from .flux import species_flux_above  # noqa: F401
 from .travel import fed_travel  # noqa: F401
+from .phi import PHI_C_RANGE, BED_TOP, BED_TOP_VARIANTS, BED_THICKNESS, BED_CLEARANCE, BANDS, bed_columns, static_bed_table, static_bed_phi, tilt_free_spans, surface_cutoff_table, surface_cutoff_max, phi_profile_accumulator, base_height, phi_profile_table, band_falls, phi_above  # noqa: F401
+from .gap import WALL_SLICE, CENTRE_SLICE, CS_SPLIT, slices, slice_share, GapKinematics, gap_surface_velocity, deposit_gap, gap_contrast  # noqa: F401

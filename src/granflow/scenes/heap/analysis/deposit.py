@@ -12,7 +12,7 @@ from .surface import HeapGeometry, SurfaceFit, centre_bins, uniform_edges
 
 def deposit_concentration(position, radius, type, fit: SurfaceFit, geometry: HeapGeometry,
                           t_start: float, t_end: float, delta: float, dx: float, *,
-                          y_range=None, slab=None) -> pd.DataFrame:
+                          y_range=None, slab=None, weight=None) -> pd.DataFrame:
     """Small-particle volume concentration of the material deposited in a time window (paper, figure 3).
 
     The deposit of the window lies between the fitted surface at ``t_start``
@@ -31,7 +31,9 @@ def deposit_concentration(position, radius, type, fit: SurfaceFit, geometry: Hea
     experiments). ``slab=(k, n)`` keeps the k-th (from 0, oldest first) of n
     equal slabs of the deposit's depth, the material laid down in the k-th of n
     equal parts of the window: the deposit's statistical error
-    (:func:`deposit_variants`).
+    (:func:`deposit_variants`). ``weight`` (one per particle, in [0, 1]) counts that
+    share of each particle's volume, e.g. its fraction inside slices of the gap
+    (:func:`.gap.deposit_gap`); a particle with weight 0 is not counted.
 
     Returns
     -------
@@ -58,6 +60,10 @@ def deposit_concentration(position, radius, type, fit: SurfaceFit, geometry: Hea
     col = centre_bins(position[:, 0], edges)
     inside &= col >= 0
     vol = 4.0 / 3.0 * np.pi * radius**3
+    if weight is not None:
+        weight = np.asarray(weight, dtype=float).ravel()
+        vol = vol * weight
+        inside &= weight > 0
     n_cols = len(edges) - 1
     total = np.bincount(col[inside], weights=vol[inside], minlength=n_cols)
     small = np.bincount(col[inside], weights=(vol * (kind == 1))[inside], minlength=n_cols)

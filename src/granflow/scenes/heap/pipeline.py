@@ -198,7 +198,8 @@ def _phi_and_gap(phis, z_s, tilt_free, x_edges, z_edges, geometry, fit, moving, 
     else:
         tables["deposit_gap"] = pd.DataFrame(columns=["variant", "slice", "slab", "x_lab", "c_s", "n", "volume"])
     phi_bed, phi_bed_se, _ = hp.static_bed_phi(tables["static_bed"])
-    cut = hp.surface_cutoff_max(tables["surface_cutoff"], hp.surface_fit_range(geometry, dx), d_bar)
+    cut = hp.surface_cutoff_max(tables["surface_cutoff"], hp.surface_fit_range(geometry, dx), d_bar,
+                                "span_tilt_free_mean")
     return tables, {"phi_static_bed": phi_bed, "phi_static_bed_se": phi_bed_se,
                     "surface_cutoff_span_max_over_d": cut["value"], "phi_c_range": list(hp.PHI_C_RANGE)}
 

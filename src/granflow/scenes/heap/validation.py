@@ -8,7 +8,10 @@ Checks per case: the dynamic angle of repose α (the paper states it for the 1/2
 33 g/s only, section 3.1); the rise velocity against mass conservation (exact: ratio 1); the
 flowing-layer thickness in local mean diameters, δ/d̄ (6-7 d, section 3.2.2); the prefactor and
 the exponent of the exponential tail u/u_s = 2.4 e^{3.3 z/δ} (figure 7b); the spread of the three
-δ methods (they agree, figure 6d); for a mixture, the small particles' deposit upstream (figure 3).
+δ methods (they agree, figure 6d); for a mixture, the small particles' deposit upstream (figure 3);
+φ in the static bed, the shape of φ(z) and the surface's cutoff (section 3.1, figure 4a:
+:mod:`granflow.scenes.heap.phi_checks`); u_s and c_s across the gap (appendix 1, figure A.12:
+:mod:`granflow.scenes.heap.gap_checks`).
 Over the sweep: the exponent of δ/d̄ ∝ q*^a (a ≈ 0.22, figure 11). From the kept profiles,
 :func:`granflow.scenes.heap.profile_checks.profile_checks` (figures 6-11 in the paper's form).
 
@@ -32,6 +35,8 @@ from granflow.validation import Check, ValidationResult, concat_profiles, read_c
 from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.heap.analysis as hp
+from .gap_checks import gap_checks
+from .phi_checks import phi_checks
 from .pipeline import mixture_mean_diameter
 from .profile_checks import profile_checks
 
@@ -69,6 +74,8 @@ ALPHA_MIDDLE_VARIANTS = ((0.2, 0.8), (0.3, 0.7))
 TAIL_RANGE_VARIANTS = ((-1.8, -0.6), (-1.4, -0.8))
 #: collapsed profiles are kept down to this z/δ
 COLLAPSE_ZT_MIN = -3.0
+#: the analysis's tables of φ in depth and of the gap's slices (read by phi_checks and gap_checks)
+DEPTH_AND_GAP_TABLES = ("static_bed", "phi_profile", "surface_cutoff", "gap_surface_velocity", "deposit_gap")
 
 
 # --------------------------------------------------------------------------- inputs
@@ -124,7 +131,8 @@ def load_case(name: str, path: Path) -> HeapCase:
     """The case's record, run status, analysis scalars and tables (empty where absent), and its errors."""
     path = Path(path)
     record, status, scalars, _ = read_case(path)
-    tables = {t: read_table(path / "analysis" / f"{t}.csv") for t in ("per_x", "collapse", "surface", "deposit", "deposit_variants")}
+    tables = {t: read_table(path / "analysis" / f"{t}.csv") for t in ("per_x", "collapse", "surface", "deposit", "deposit_variants",
+                                                                     *DEPTH_AND_GAP_TABLES)}
     case = HeapCase(name, path, record, status, scalars, tables)
     case.errors, case.error_note = headline_errors(case)
     return case
@@ -562,7 +570,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
     loaded = sorted((load_case(name, path) for name, path in cases.items()),
                     key=lambda c: (c.record["case"]["mixture"], c.feed_rate, c.name))
     checks = []
-    for make in (alpha_check, rise_check, delta_check, tail_checks, methods_check, deposit_check):
+    for make in (alpha_check, rise_check, delta_check, tail_checks, methods_check, deposit_check, phi_checks, gap_checks):
         for c in loaded:
             made = make(c)
             checks += made if isinstance(made, list) else [made]

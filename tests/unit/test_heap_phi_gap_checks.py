@@ -16,7 +16,6 @@ import yaml
 import granflow.scenes.heap.gap_checks as gc
 import granflow.scenes.heap.phi_checks as pc
 from granflow import coverage
-from granflow.scenes.heap import analysis as hp
 from granflow.scenes.heap.validation import HeapCase, load_case, validation
 
 DELTA, D_BAR, D_L, L = 6e-3, 1e-3, 2e-3, 0.1

@@ -140,8 +140,10 @@ def test_a_heap_as_the_paper_describes_it_passes_every_row():
     # reading (1.3 d̄ more) is in the note, not a variant
     cut = got[pc.Q_CUTOFF]
     assert cut.ours == pytest.approx(0.72, rel=1e-3) and cut.error == pytest.approx(0.02)
-    assert "over d_s = 1 mm: 0.7199" in cut.variants and "vertical" not in cut.variants
-    assert "From the vertical columns the largest is 2 d̄" in cut.note
+    assert "vertical" not in cut.variants and "From the vertical columns the largest is 2 d̄" in cut.note
+    # "one particle diameter" in the 1/2 mm mixture: the largest, d_l = 2 d̄ here
+    assert cut.paper_range == (0.0, pytest.approx(2.0))
+    assert "over d_s the value is 0.72, over d_l 0.36" in cut.note
     assert got[gc.Q_US_WALL].ours == pytest.approx(0.9, abs=0.005)
     assert got[gc.Q_US_CENTRE].ours == pytest.approx(1.1, abs=0.005)
     up, down = got[gc.Q_CS_UP], got[gc.Q_CS_DOWN]
@@ -154,7 +156,7 @@ def test_a_heap_as_the_paper_describes_it_passes_every_row():
 def test_each_row_fails_when_the_heap_differs_from_the_paper():
     case = make_case({"static_bed": static_bed(0.60), "phi_profile": phi_profile(creep=-0.04, top=0.005,
                                                                                bounce_up=0.0, bounce_down=0.01),
-                      "surface_cutoff": surface_cutoff(2.0), "gap_surface_velocity": gap_velocity(1.0, 1.0),
+                      "surface_cutoff": surface_cutoff(3.0), "gap_surface_velocity": gap_velocity(1.0, 1.0),
                       "deposit_gap": deposit_gap((0.5, 0.5), (0.6, 0.4))})
     got = rows(case)
     for q in (pc.Q_BED, pc.Q_CREEP, pc.Q_TOP, pc.Q_ABOVE, pc.Q_CUTOFF, gc.Q_US_WALL, gc.Q_US_CENTRE, gc.Q_CS_DOWN):

@@ -20,8 +20,8 @@ scalars) and compares, each in the form the paper states it:
   is upstream's), and the upstream value itself as a reading (any bouncing particle makes it > 0);
 * "the measured free surface only varies by one particle diameter when :math:`f_c` is changed between
   0.1 and 0.5": the largest, over the columns of the record's surface fit, of the time-mean
-  :math:`|z_s(0.1) - z_s(0.5)|` over :math:`\\bar d` (paper ≤ 1), heights from each frame's own surface line
-  (:func:`cutoff_check` says why).
+  :math:`|z_s(0.1) - z_s(0.5)|` over :math:`\\bar d`, heights from each frame's own surface line
+  (:func:`cutoff_check` says why), against one diameter read as the largest, :math:`d_l/\\bar d`.
 
 Errors: the streamwise columns' scatter (columns taken as independent: neighbours share particles, an
 underestimate); the largest offset carries its column's correlation-aware error. Syst: the x/L range,
@@ -252,23 +252,24 @@ def cutoff_check(case) -> Check:
     in the note, not varied.
     """
     table = _table(case, "surface_cutoff")
-    paper = "≤ 1: the surface 'only varies by one particle diameter' when f_c goes from 0.1 to 0.5"
-    kw = dict(case=case.name, paper_range=(0.0, 1.0))
+    d_bar = case.get("d_bar")
+    d_l = _d_large(case)
+    bound = d_l / d_bar if math.isfinite(d_bar) else NAN
+    paper = (f"≤ one particle diameter: the surface 'only varies by one particle diameter' when f_c goes from 0.1 "
+             f"to 0.5; in a mixture read as the largest, d_l = {bound:.3g} d̄")
+    kw = dict(case=case.name, paper_range=(0.0, bound) if math.isfinite(bound) else (0.0, 1.0))
     if not case.measured or table.empty or "span_tilt_free_mean" not in table:
         return Check(Q_CUTOFF, paper, "§3.1", NAN, note=missing(case, "surface_cutoff"), **kw)
-    d_bar = case.get("d_bar")
     geometry = hp.HeapGeometry(**case.record["geometry"])
     dx = case.record["rung_knobs"]["bin_dx"] * d_bar
     fit_range = hp.surface_fit_range(geometry, dx)
     mid = tuple(geometry.x_feed + f * geometry.L_lab for f in hp.ALPHA_PLANAR_MIDDLE)
     central = "span_tilt_free_mean"
     got = hp.surface_cutoff_max(table, fit_range, d_bar, central)
-    d_s = min(float(s["d"]) for s in case.record["species"])
     alt = {f"columns of the surface's planar middle ({hp.ALPHA_PLANAR_MIDDLE[0]:g}-{hp.ALPHA_PLANAR_MIDDLE[1]:g} of "
            "its length)": hp.surface_cutoff_max(table, mid, d_bar, central)["value"],
            "each column's median over the frames":
-               hp.surface_cutoff_max(table, fit_range, d_bar, "span_tilt_free_median")["value"],
-           f"over d_s = {d_s * 1e3:g} mm": got["value"] * d_bar / d_s}
+               hp.surface_cutoff_max(table, fit_range, d_bar, "span_tilt_free_median")["value"]}
     syst, text = systematic(got["value"], alt)
     vertical = hp.surface_cutoff_max(table, fit_range, d_bar, "span_mean")
     tilt = dx * math.tan(math.radians(case.get("alpha_deg"))) / d_bar
@@ -281,8 +282,11 @@ def cutoff_check(case) -> Check:
             f"over them {got['mean']:.2g} d̄; d̄ = {d_bar * 1e3:.3g} mm. From the vertical columns the largest is "
             f"{vertical['value']:.2g} d̄: a column spans {tilt:.2g} d̄ of the sloping surface's height, which moves a "
             f"step surface by (0.5 − 0.1)/φ_bed × {tilt:.2g} = {0.4 / phi_bed * tilt:.2g} d̄ between the cutoffs "
-            f"whatever the surface (the bins' width, not the surface; not varied). Error: that column's mean over "
-            f"correlated frames; syst: the columns read, the per-column statistic, the diameter")
+            f"whatever the surface (the bins' width, not the surface; not varied). The paper's unit, 'one particle "
+            f"diameter', is 1 or 2 mm in its 1/2 mm mixture: the bound is read as the largest diameter (the most "
+            f"lenient; over d_s the value is {got['value'] * d_bar / min(float(s['d']) for s in case.record['species']):.2g}, "
+            f"over d_l {got['value'] * d_bar / d_l:.2g}). Error: that column's mean over correlated frames; syst: the "
+            "columns read, the per-column statistic")
     return Check(Q_CUTOFF, paper, "§3.1", got["value"], got["se"], syst=syst, variants=text, note=with_status(note, case),
                  **kw)
 

@@ -249,3 +249,24 @@ def test_a_rung_without_runs_may_keep_its_committed_rows(tmp_path):
     df = ladder_tool.table(ladder, tmp_path, keep_committed=True)
     assert list(df["rung"]) == ["B10"] and df["state"].iloc[0] == kept[0]["state"]
     assert "kept from the committed ladder.csv" in ladder_tool.markdown(df, ladder)
+
+
+def test_rejudge_counts_the_papers_error_and_reads_an_open_range():
+    """A row's verdict from its numbers alone matches the check's: the paper's own error enters the combined
+    error, a range open on one side ("> 0") is a range, and a row of before the paper_error column is judged
+    without one."""
+    from granflow.ladder import rejudge
+    from granflow.validation import Check
+
+    alpha = Check("α", "25.69 ± 0.07", "Fig. 5", ours=27.43, error=0.041, paper_range=(25.69, 25.69), paper_error=0.07,
+                  syst=0.055)
+    sign = Check("c_s", "> 0", "Fig. 8", ours=0.19, error=0.054, paper_range=(0.0, math.inf), syst=0.042)
+    rows = [{"rung": "r", "knob": "k", "state": "run", "quantity": c.quantity, "ours": c.ours, "stat": c.error,
+             "syst": c.syst, "verdict": "", "paper_error": c.paper_error, "paper_lo": min(c.paper_range),
+             "paper_hi": max(c.paper_range), "kind": "comparison"} for c in (alpha, sign)]
+    ladder = {"scene": "heap"}
+    got = rejudge(pd.DataFrame(rows), ladder)["verdict"].tolist()
+    assert got == [alpha.verdict, sign.verdict]
+    assert "18 σ" in got[0] and got[1] == "within the paper's range"
+    old = rejudge(pd.DataFrame(rows).drop(columns="paper_error"), ladder)["verdict"].tolist()
+    assert "25 σ" in old[0]                                    # without the paper's error: stat ⊕ syst only

@@ -150,5 +150,8 @@ def test_a_heap_that_breaks_the_laws_fails():
 def test_the_scene_and_the_record_use_the_same_checks():
     from granflow.scenes.heap import SCENE
 
+    from granflow.scenes.heap.shear_checks import shear_checks
+
     got = SCENE.profile_checks(profiles(heap(20), heap(33)))
-    assert [c.quantity for c in got] == [c.quantity for c in profile_checks(profiles(heap(20), heap(33)))]
+    want = profile_checks(profiles(heap(20), heap(33))) + shear_checks(profiles(heap(20), heap(33)))
+    assert [c.quantity for c in got] == [c.quantity for c in want]

@@ -211,10 +211,11 @@ class HeapScene(Scene):
     def profile_checks(self, profiles):
         """The checks made from the record's profiles (streamwise, collapse, surface): Figs. 6-11 in the
         paper's form and δ/d̄ ∝ q*^a across feed rates (:func:`granflow.scenes.heap.profile_checks.profile_checks`,
-        which validation() calls too)."""
+        which validation() calls too) and γ̇'s profile in depth (:mod:`granflow.scenes.heap.shear_checks`)."""
         from .profile_checks import profile_checks
+        from .shear_checks import shear_checks
 
-        return profile_checks(profiles)
+        return profile_checks(profiles) + shear_checks(profiles)
 
     def validation(self, scene_dir, cases):
         """Fan et al. (2013) against the cases: :func:`granflow.scenes.heap.validation.validation`."""

@@ -39,6 +39,7 @@ from .gap_checks import gap_checks
 from .phi_checks import phi_checks
 from .pipeline import mixture_mean_diameter
 from .profile_checks import profile_checks
+from .shear_checks import shear_checks
 
 #: the heap scene's headline keys (``HeapScene.headline``) and, per key, the analysis's own error
 HEADLINE_FALLBACK = {"alpha": "alpha_se", "delta_over_d": None, "tail_exponent": "tail_k_se"}
@@ -577,6 +578,6 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
     checks.append(q_star_check(loaded))
     kept = profiles(loaded)
     # the checks made from the profiles the record keeps (HeapScene.profile_checks: the same code judges a
-    # committed record): kinematics along the heap, the collapse, w, the surface, across feed rates, q*
-    checks += profile_checks(kept)
+    # committed record): kinematics along the heap, the collapse, w, the surface, across feed rates, q*, γ̇(z)
+    checks += profile_checks(kept) + shear_checks(kept)
     return ValidationResult(checks=checks, profiles=kept, figures=list(FIGURES), differences=differences(loaded))

@@ -76,6 +76,29 @@ class BondOrder:
         np.add.at(counts, j[solid], 1)
         return counts
 
+    def global_q(self, mask=None) -> float:
+        """The global bond order :math:`Q_l` of a set of particles (Steinhardt et al. 1983): the average of
+        :math:`Y_{lm}` over every bond of the set's particles (each particle's :math:`q_{lm}(i)` weighted by
+        its neighbours), then :math:`Q_l = [4\\pi/(2l+1) \\sum_m |\\bar Q_{lm}|^2]^{1/2}`. :math:`Q_6` is
+        0.5745 for fcc, about :math:`1/\\sqrt{N_b}` for :math:`N_b` bonds without common orientation.
+
+        Parameters
+        ----------
+        mask : ndarray of bool, shape (N,), optional
+            The particles of the set (default: all).
+
+        Returns
+        -------
+        float
+            NaN when the set has no bond.
+        """
+        pick = np.ones(len(self.q), dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
+        weight = self.n_neighbours[pick]
+        if weight.sum() == 0:
+            return float("nan")
+        mean = (self.qlm[pick] * weight[:, None]).sum(axis=0) / weight.sum()
+        return float(np.sqrt(4.0 * np.pi / (2 * self.l + 1) * np.sum(np.abs(mean) ** 2)))
+
     def crystal_like(self, threshold: float = SOLID_BOND, min_bonds: int = CRYSTAL_BONDS) -> np.ndarray:
         """True for each particle with at least ``min_bonds`` solid-like bonds.
 

@@ -50,6 +50,30 @@ def test_random_points_are_not_crystal_like():
     assert np.nanmean(bo.q) < 0.45
 
 
+def test_the_global_q6_is_fccs_for_a_turned_lattice_and_small_without_common_order():
+    pos, box = fcc(6)
+    turned = (pos - pos.mean(axis=0)) @ rotation(5).T + 20.0
+    bo = bond_order(turned, np.array([[0.0, 40.0]] * 3), (False, False, False), cutoff=1.3)
+    inner = np.linalg.norm(turned - turned.mean(axis=0), axis=1) < 3.0
+    assert bo.global_q(inner) == pytest.approx(Q6_FCC, abs=2e-4)        # every bond of the set shares the lattice
+    rng = np.random.default_rng(2)
+    L = 12.0
+    pos = rng.uniform(0, L, size=(int(1.2 * L**3), 3))
+    bo = bond_order(pos, np.array([[0.0, L]] * 3), (True, True, True), cutoff=1.3)
+    n_bonds = len(bo.pairs)
+    assert bo.global_q() < 5.0 / np.sqrt(n_bonds)                     # ~ 1/√N_b: no common orientation
+    # each grain its own turned fcc: the local q6 stays the lattice's, the global Q6 falls
+    grains = []
+    for k in range(8):
+        p, _ = fcc(3)
+        grains.append((p - p.mean(axis=0)) @ rotation(10 + k).T + 12.0 * np.array([k % 2, (k // 2) % 2, k // 4]))
+    pos = np.concatenate(grains) + 6.0
+    bo = bond_order(pos, np.array([[0.0, 40.0]] * 3), (False, False, False), cutoff=1.3)
+    assert bo.global_q() < 0.5 * Q6_FCC and np.nanmedian(bo.q) > 0.5
+    assert np.isnan(bond_order(np.array([[0.0, 0, 0], [5.0, 0, 0]]), np.array([[-1.0, 9.0]] * 3),
+                               (False,) * 3, 1.3).global_q())
+
+
 def test_periodic_pairs_cross_the_boundary():
     pos = np.array([[0.2, 5.0, 5.0], [9.9, 5.0, 5.0]])
     box = np.array([[0.0, 10.0]] * 3)
@@ -142,3 +166,18 @@ def test_a_sheared_plug_carried_by_its_mean_flow_has_no_nonaffine_displacement()
     rigid = plug_structure(frames, W=W, plug_edge=4.0).summary["nonaffine_rms_plug"]
     assert carried < 1e-9
     assert rigid > 1.0   # taking away only a rigid shift counts the shear as rearrangement
+
+
+def test_the_plugs_global_q6_tells_a_crystal_plug_from_a_random_one():
+    # a channel 20 d_p wide filled with an fcc lattice (periodic in y and z: 20 x 8√2·... cells fit exactly)
+    a = np.sqrt(2.0)
+    pos, _ = fcc(8, a)                                   # 8 cells of a = √2: 11.3 d_p per side
+    box = np.array([[0.0, 8 * a]] * 3)
+    W = float(box[0, 1])
+    crystal = plug_structure([_frame(0.0, pos, box)], W=W, plug_edge=2.0).summary
+    assert crystal["Q6_plug"] == pytest.approx(0.5745, abs=2e-3)
+    assert crystal["Q6_plug_cut1.2"] == pytest.approx(0.5745, abs=2e-3)
+    rpos, rbox = _channel_plug(9)
+    frames = [_frame(float(k), rpos + 0.0, rbox) for k in range(3)]
+    loose = plug_structure(frames, W=20.0, plug_edge=6.0).summary
+    assert loose["Q6_plug"] < 0.1 and loose["Q6_plug_se"] == pytest.approx(0.0, abs=1e-12)

@@ -158,7 +158,7 @@ def test_channel_case_without_a_steady_state_gives_nan_and_the_reason(tmp_path, 
 
     monkeypatch.setattr(headline, "measure_with_errors", no_dumps)
     result = chv.validation(tmp_path, {"W~20/phi~0.6": channel_case(tmp_path, "d", status="no_steady_state")})
-    assert len(result.checks) == 9   # the six headlines, drift, plug structure, wall force
+    assert len(result.checks) == 10   # the six headlines, drift, plug structure, plug order, wall force
     for check in result.checks:
         assert math.isnan(check.ours) and math.isnan(check.error)
         assert "no_steady_state" in check.note
@@ -316,3 +316,19 @@ def test_chute_regime_changes_are_bracketed_by_the_sweeps_angles(tmp_path, chute
     assert math.isnan(_by(alone.checks, "sweep", cuv.Q_STOP).ours)
     assert "needs an arrested angle below a flowing one" in _by(alone.checks, "sweep", cuv.Q_STOP).note
     assert math.isnan(cuv.bracket([25.0], [22.0])[0]) and cuv.bracket([25.0], [22.0])[2] == ""
+
+
+def test_the_plugs_q6_row_reads_the_paper_bound_with_its_variants_as_syst(tmp_path):
+    def case(q6, inner, cut12, cut14, why=""):
+        sc = {"plug_Q6": q6, "plug_Q6_se": 0.002, "plug_Q6_inner": inner, "plug_Q6_cut1.2": cut12,
+              "plug_Q6_cut1.4": cut14, "plug_q6": 0.40, "x_dense_plug": 20.0}
+        return chv.ChannelCase("W~60/phi~0.61", tmp_path, {}, {}, sc, why)
+
+    random = chv.plug_order_check(case(0.04, 0.05, 0.045, 0.03))
+    assert random.verdict == "within the paper's range" and random.paper_range == (0.0, 0.4)
+    assert random.syst == pytest.approx(0.01, abs=2e-3)                  # the largest variant's shift, beyond stat
+    crystal = chv.plug_order_check(case(0.55, 0.56, 0.55, 0.54))
+    assert "off by" in crystal.verdict
+    old = chv.plug_order_check(case(float("nan"), 0, 0, 0))
+    assert math.isnan(old.ours) and "rerun analyse" in old.note
+    assert "no_steady" in chv.plug_order_check(case(0.04, 0, 0, 0, why="no_steady_state")).note

@@ -182,7 +182,7 @@ class ChannelScene(Scene):
     @staticmethod
     def _steadiness_and_plug(case_dir: Path, record: dict, scalars: dict, profile) -> tuple[dict, dict]:
         """Per-block u_max/u_slip with its drift, and the plug's structure (:mod:`.analysis.plug`)."""
-        from .analysis.plug import drift
+        from .analysis.plug import Q6_CUTOFF_VARIANTS, drift
         from .pipeline import channel_blocks, channel_plug_structure
 
         window = float(record["rung_knobs"]["t_average"])
@@ -195,7 +195,9 @@ class ChannelScene(Scene):
                "n_blocks": int(len(blocks))}
         names = {"q6_plug": "plug_q6", "crystal_plug": "plug_crystal_fraction", "q6_shear": "shear_q6",
                  "crystal_shear": "shear_crystal_fraction", "layering_plug": "plug_layering",
-                 "layering_random": "plug_layering_random", "nonaffine_rms_plug": "plug_nonaffine_rms"}
+                 "layering_random": "plug_layering_random", "nonaffine_rms_plug": "plug_nonaffine_rms",
+                 "Q6_plug": "plug_Q6", "Q6_plug_se": "plug_Q6_se", "Q6_plug_inner": "plug_Q6_inner",
+                 **{f"Q6_plug_cut{c:g}": f"plug_Q6_cut{c:g}" for c in Q6_CUTOFF_VARIANTS}}
         out.update({column: s.get(key, float("nan")) for key, column in names.items()})
         return {"blocks": blocks, "structure": plug.frames}, out
 

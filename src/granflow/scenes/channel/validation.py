@@ -301,7 +301,7 @@ def steadiness_and_plug_checks(case: ChannelCase) -> list[Check]:
         return [Check("drift of u_max/u_slip over the averaging window", "0 (steady)", "§2, §3.1", NAN, NAN, name,
                       (0.0, 0.0), note=why),
                 Check("plug: rms non-affine displacement over the window", "no number (a sheared plug at φ ≈ 0.63)",
-                      "§3.2", NAN, NAN, name, None, note=why)]
+                      "§3.2", NAN, NAN, name, None, note=why), plug_order_check(case)]
     window = float(case.record["rung_knobs"]["t_average"])
     drift, drift_se = _value(case, "ratio_drift"), _value(case, "ratio_drift_se")
     note = (f"change of a straight line through u_max/u_slip of {int(sc.get('n_blocks', 0))} consecutive blocks of "
@@ -324,7 +324,34 @@ def steadiness_and_plug_checks(case: ChannelCase) -> list[Check]:
             f"plug samples one configuration, so its bins scatter by more than their time-average errors")
     checks.append(Check("plug: rms non-affine displacement over the window", "no number (a sheared plug at φ ≈ 0.63)",
                         "§3.2", rms, NAN, name, None, unit="d_p", note=note))
-    return checks
+    return checks + [plug_order_check(case)]
+
+
+#: the paper's bound on the plug's order parameter: "no crystallization; the Q_6 order parameter
+#: (Kumaran 2009c,d) in this region is below 0.4"
+Q6_BOUND = 0.4
+
+
+def plug_order_check(case: ChannelCase) -> Check:
+    """The plug's global bond order :math:`Q_6` (Steinhardt et al. 1983, over every bond of the plug's
+    particles; :meth:`postproc.structure.BondOrder.global_q`), the frames' mean, against the paper's < 0.4.
+    Syst: the bond cutoff (1.2 and 1.4 d_p against 1.3) and the plug's edge 1 d_p further in."""
+    quantity, paper, source = "plug: global bond order Q_6", f"< {Q6_BOUND:g} (no crystallization)", "§3.2"
+    value = _value(case, "plug_Q6")
+    if case.why_not or not math.isfinite(value):
+        why = case.why_not or "not measured: the analysis predates the plug's global Q_6 (rerun analyse)"
+        return Check(quantity, paper, source, NAN, NAN, case.name, (0.0, Q6_BOUND), note=why)
+    variants = {f"bond cutoff {c:g} d_p": _value(case, f"plug_Q6_cut{c:g}") for c in (1.2, 1.4)}
+    variants["plug edge 1 d_p further in"] = _value(case, "plug_Q6_inner")
+    se = _value(case, "plug_Q6_se")
+    syst, text = systematic(value, variants, central_se=se)
+    note = (f"Q_6 = [4π/13 Σ_m |⟨Y_6m⟩|²]^½ with ⟨Y_6m⟩ the mean over every bond (centres closer than 1.3 d_p) of the "
+            f"particles at ≥ {_value(case, 'x_dense_plug'):.3g} d_p from the wall, per frame, the frames' mean: 0.5745 "
+            f"for fcc, ~1/√(bonds) without common orientation (Steinhardt et al. 1983; the paper cites Kumaran 2009c,d "
+            f"for it). The local q6 averaged per particle is {_value(case, 'plug_q6'):.3f} (in the non-affine row's "
+            f"note: a random packing reads 0.35-0.45 there). Error: the frames' scatter over √frames (frames taken "
+            f"as independent); syst: the bond cutoff, the plug's edge")
+    return Check(quantity, paper, source, value, se, case.name, (0.0, Q6_BOUND), syst=syst, variants=text, note=note)
 
 
 # ------------------------------------------------------------------------- profiles

@@ -7,7 +7,8 @@ answer differently from the paper's (B = 40, H = 60 + ΔH):
   window (:func:`block_ratios`) and the drift of a straight line through them;
 * **the plug's structure** (:func:`plug_structure`): per frame, over the particles of the plug
   (distance from the nearer wall ≥ the plug edge of the averaged profile), the Steinhardt
-  :math:`q_6`, the fraction of crystal-like particles (ten Wolde et al. 1996,
+  :math:`q_6` and the plug's global :math:`Q_6` (Steinhardt et al. 1983, Kumaran 2009's order
+  parameter), the fraction of crystal-like particles (ten Wolde et al. 1996,
   :mod:`postproc.structure`), the layering along the periodic depth z, and the root-mean-square
   *non-affine* displacement: each plug particle's displacement since the first frame less what
   the mean flow carries it (the time-averaged u_y at its x, frame by frame, then the plug's
@@ -33,6 +34,8 @@ BOND_CUTOFF = 1.3
 LAYER_SPACING = (0.8, 1.2)
 #: distance from a wall inside which particles layer against it (the paper's wall layer, 2 d_p)
 WALL_LAYER = 2.0
+#: the bond cutoff's variants for the plug's global Q6 (the systematic error of its row), d_p
+Q6_CUTOFF_VARIANTS = (1.2, 1.4)
 #: at most this many frames of the window are analysed for structure (evenly spaced; all for displacement)
 MAX_STRUCTURE_FRAMES = 40
 
@@ -51,7 +54,8 @@ def _wrap(d: np.ndarray, length: float) -> np.ndarray:
 class PlugStructure:
     """Per-frame structure of the plug and the shear zone (:func:`plug_structure`), with the window's means.
 
-    ``frames`` has the columns ``t``, ``q6_plug``, ``crystal_plug``, ``q6_shear``, ``crystal_shear``,
+    ``frames`` has the columns ``t``, ``q6_plug``, ``Q6_plug`` (global; ``Q6_plug_inner``, ``Q6_plug_cut<c>``
+    its variants), ``crystal_plug``, ``q6_shear``, ``crystal_shear``,
     ``layering_plug`` (with ``layer_spacing``), ``nonaffine_rms_plug`` (NaN where not measured),
     ``n_plug``; ``summary`` the means and the last non-affine displacement.
     """
@@ -120,6 +124,11 @@ def plug_structure(frames, W: float, plug_edge: float, periodic=(False, True, Tr
             bo = bond_order(frame.position, frame.box, periodic, BOND_CUTOFF)
             crystal = bo.crystal_like()
             s, spacing = layering(frame.position[plug, 2], float(lengths[2]), LAYER_SPACING)
+            # the global Q6 over the plug's bonds (Kumaran 2009's order parameter, the paper's "< 0.4"), with
+            # the bond cutoff and the plug's edge (1 d_p further in) as variants
+            row.update({"Q6_plug": bo.global_q(plug), "Q6_plug_inner": bo.global_q(dist >= plug_edge + 1.0)})
+            for cut in Q6_CUTOFF_VARIANTS:
+                row[f"Q6_plug_cut{cut:g}"] = bond_order(frame.position, frame.box, periodic, cut).global_q(plug)
             row.update({"q6_plug": float(np.nanmean(bo.q[plug])), "crystal_plug": float(crystal[plug].mean()),
                         "q6_shear": float(np.nanmean(bo.q[shear])) if shear.any() else np.nan,
                         "crystal_shear": float(crystal[shear].mean()) if shear.any() else np.nan,
@@ -128,8 +137,11 @@ def plug_structure(frames, W: float, plug_edge: float, periodic=(False, True, Tr
     table = pd.DataFrame(rows)
     table["t"] -= table["t"].iloc[0]
     measured = table.dropna(subset=["q6_plug"])
+    q6_keys = ["Q6_plug", "Q6_plug_inner"] + [f"Q6_plug_cut{cut:g}" for cut in Q6_CUTOFF_VARIANTS]
     summary = {key: float(measured[key].mean()) for key in
-               ("q6_plug", "crystal_plug", "q6_shear", "crystal_shear", "layering_plug")}
+               ("q6_plug", "crystal_plug", "q6_shear", "crystal_shear", "layering_plug", *q6_keys)}
+    n_q6 = int(measured["Q6_plug"].notna().sum())
+    summary["Q6_plug_se"] = float(measured["Q6_plug"].std(ddof=1) / np.sqrt(n_q6)) if n_q6 > 1 else float("nan")
     summary.update({"nonaffine_rms_plug": float(table["nonaffine_rms_plug"].iloc[-1]),
                     "window": float(table["t"].iloc[-1]), "n_tracked": int(tracked.sum()),
                     "layering_random": float(1.0 / np.sqrt(max(1.0, measured["n_plug"].mean())))})

@@ -37,6 +37,18 @@ few diameters (near walls, say). Only the ``volume`` primitive changes
 (:math:`\\phi` and the species :math:`\\phi_j`); parts of spheres beyond the
 outer edges are lost.
 
+Fluctuations about the frame's own mean. By default (``fluctuation="window"``) the
+kinetic stress and the granular temperature are fluctuations about the *time-averaged*
+velocity at a node, :math:`\\overline{F} - \\overline{P}\\,\\overline{P}/\\overline{\\rho}`: a
+region moving as one body whose speed changes over the window (a channel's plug) then
+counts that change as agitation. With ``fluctuation="frame"`` they are fluctuations about
+each frame's own node velocity, averaged over the frames,
+:math:`\\overline{F - P P/\\rho}` (and likewise for the spin), as a bin's
+:math:`T = \\frac{1}{6N}\\sum_i m_i (\\mathbf v_i - \\mathbf v)^2 + \\ldots` over the
+:math:`N` particles in the bin at one instant reads (Debnath et al. 2022, eqs. 2.1-2.4).
+Only ``T``, ``sigmak``, ``sigma``, ``pk`` and ``p`` change; species partials stay about
+the window's mean.
+
 Contact stress from contacts (paper eq. 5). Given a
 :class:`~postproc.contacts.ContactFrame` to :meth:`FieldAccumulator.accumulate`,
 the contact stress is the line integral along the branch vectors, each pair once,
@@ -102,8 +114,9 @@ import pandas as pd
 from .blocks import SUBBLOCKS_PER_BLOCK, ConcludedResult, BlockedSums, time_average_errors
 from .contacts import ContactFrame, branch_quadrature
 from .coordinates import XCoordinates
-from .fields_definitions import (ALL_FIELDS, FIELD_PRIMITIVES, FIELDS, PRESSURES, PRIMITIVES,  # noqa: F401 (re-exported)
-                                 SPECIES_FIELDS, SPECIES_PRIMITIVES, VECTOR, derive, field_columns, species_columns)
+from .fields_definitions import (ALL_FIELDS, FIELD_PRIMITIVES, FIELDS, FLUCTUATIONS, FRAME_WIDTHS,  # noqa: F401
+                                 PRESSURES, PRIMITIVES, SPECIES_FIELDS, SPECIES_PRIMITIVES, VECTOR, derive,
+                                 field_columns, kinetic_stress, species_columns, spin_fluctuation)
 from .frame import ParticleFrame
 from .kernels import HeavisideBins, channel_bin_edges
 from .overlap import slab_pairs
@@ -182,7 +195,8 @@ class FieldAccumulator(ConcludedResult):
     """
 
     def __init__(self, kernel, coordinates, fields: Sequence[str] = FIELDS, n_blocks: int = 8,
-                 species: Sequence[int] | None = None, method: str = "auto", volume: str = "centre"):
+                 species: Sequence[int] | None = None, method: str = "auto", volume: str = "centre",
+                 fluctuation: str = "window"):
         unknown = [f for f in fields if f not in ALL_FIELDS]
         if unknown:
             raise ValueError(f"unknown fields {unknown}; choose from {ALL_FIELDS}")
@@ -210,6 +224,9 @@ class FieldAccumulator(ConcludedResult):
                 f"{type(coordinates).__name__} {tuple(coordinates.names)}"
             )
         self.volume = volume
+        if fluctuation not in FLUCTUATIONS:
+            raise ValueError(f"fluctuation must be one of {FLUCTUATIONS}, not {fluctuation!r}")
+        self.fluctuation = fluctuation
         self._prepared = False
         self._reset()
 
@@ -222,6 +239,7 @@ class FieldAccumulator(ConcludedResult):
         self._primitives: tuple[str, ...] = ()
         self._species_primitives: tuple[str, ...] = ()
         self._contact_source: str | None = None  # "contacts", "per_atom" or None
+        self._frame_parts: tuple[str, ...] = ()  # frame-referenced fluctuations, appended last
         self._node_volumes: np.ndarray | None = None
         self._result: pd.DataFrame | None = None
         self._block_errors: pd.DataFrame | None = None
@@ -279,6 +297,8 @@ class FieldAccumulator(ConcludedResult):
             parts.append(self._contact_density(frame, contacts))
         if self._species_primitives:
             parts.append(by_species)
+        if self._frame_parts:
+            parts.append(self._frame_fluctuations(totals, particle_primitives))
         self._sums.add(np.column_stack(parts))
         self._n_particles += len(frame.mass)
 
@@ -402,6 +422,21 @@ class FieldAccumulator(ConcludedResult):
             # the totals of a species primitive are the sums over the species
             self._primitives = tuple(p for p in PRIMITIVES if p in self._primitives or p in wanted)
         self._node_volumes = self.kernel.node_volumes(self.coordinates, frame.box)
+        if self.fluctuation == "frame" and {"T", "sigmak", "sigma", "pk", "p"} & set(fields):
+            self._frame_parts = ("frame_kinetic",) + (("frame_spin",) if "T" in fields else ())
+
+    def _frame_fluctuations(self, totals: np.ndarray, primitives: Sequence[str]) -> np.ndarray:
+        """This frame's kinetic stress density about its own node velocity, :math:`F - PP/\\rho` (6
+        columns), and, for T, its spin energy about its own node spin, :math:`E - L^2/I` (1 column)."""
+        mean, k = {}, 0
+        for p in primitives:
+            width = PRIMITIVES[p].width
+            mean[p] = totals[:, k : k + width]
+            k += width
+        out = [kinetic_stress(mean["mass"], mean["momentum"], mean["momentum_flux"])]
+        if "frame_spin" in self._frame_parts:
+            out.append(spin_fluctuation(mean["inertia"], mean["angular_momentum"], mean["spin_energy"])[:, None])
+        return np.column_stack(out)
 
     def _check_frame(self, frame: ParticleFrame, contacts: ContactFrame | None) -> None:
         missing = {
@@ -519,6 +554,10 @@ class FieldAccumulator(ConcludedResult):
                 sp[p] = stacked[:, k : k + width]
                 k += width
             species.append(sp)
+        for p in self._frame_parts:
+            width = FRAME_WIDTHS[p]
+            out[p] = stacked[:, k : k + width]
+            k += width
         return out, species
 
 
@@ -535,6 +574,7 @@ def profile_from_frames(
     bin_width: float = 1.0,
     wall_bin_width: float = 1.5,
     n_blocks: int = 8,
+    fluctuation: str = "window",
 ) -> pd.DataFrame:
     """Channel profiles across :math:`x` in Heaviside bins (Debnath et al. 2022).
 
@@ -551,6 +591,8 @@ def profile_from_frames(
         Interior and wall bin widths, length units.
     n_blocks : int
         Blocks for standard errors.
+    fluctuation : str
+        ``window`` or ``frame``: what T and the kinetic stress are fluctuations about (module docstring).
 
     Returns
     -------
@@ -562,6 +604,7 @@ def profile_from_frames(
         HeavisideBins(channel_bin_edges(walls, bin_width, wall_bin_width)),
         XCoordinates(walls=walls),
         n_blocks=n_blocks,
+        fluctuation=fluctuation,
     )
     accumulator.prepare()
     for frame in frames:

@@ -226,10 +226,24 @@ def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
     return np.divide(num, den, out=np.full(np.broadcast(num, den).shape, np.nan), where=den > 0)
 
 
-def _kinetic_stress(mass: np.ndarray, momentum: np.ndarray, flux: np.ndarray) -> np.ndarray:
+def kinetic_stress(mass: np.ndarray, momentum: np.ndarray, flux: np.ndarray) -> np.ndarray:
     """:math:`F_{ab} - P_a P_b / \\rho`, zero (not NaN) where there is no mass."""
     pp = np.column_stack([momentum[:, a] * momentum[:, b] for a, b in _PAIRS])
     return flux - np.divide(pp, mass, out=np.zeros_like(pp), where=mass > 0)
+
+
+
+def spin_fluctuation(inertia: np.ndarray, angular_momentum: np.ndarray, spin_energy: np.ndarray) -> np.ndarray:
+    """:math:`E - |L|^2 / I` (the spin's energy about the node's mean spin, times 2), zero where I = 0."""
+    i = inertia[:, 0]
+    return spin_energy[:, 0] - np.divide(np.sum(angular_momentum**2, axis=1), i, out=np.zeros_like(i), where=i > 0)
+
+
+#: how the kinetic stress and T reference the velocity (postproc.fields, "Fluctuations about the frame's
+#: own mean"): about the window's time-averaged node velocity, or each frame's own
+FLUCTUATIONS = ("window", "frame")
+#: the columns a frame-referenced fluctuation adds to the sums
+FRAME_WIDTHS = {"frame_kinetic": 6, "frame_spin": 1}
 
 
 def _trace3(tensor: np.ndarray) -> np.ndarray:
@@ -270,8 +284,10 @@ def derive(mean: dict[str, np.ndarray], fields: Sequence[str], node_volumes,
         One array per column (:func:`field_columns`, :func:`species_columns`).
     """
     out: dict[str, np.ndarray] = {}
-    if {"sigmak", "sigma", "T", "pk", "p"} & set(fields):
-        kinetic = _kinetic_stress(mean["mass"], mean["momentum"], mean["momentum_flux"])
+    if "frame_kinetic" in mean:                 # fluctuations about each frame's own mean, averaged
+        kinetic = mean["frame_kinetic"]
+    elif {"sigmak", "sigma", "T", "pk", "p"} & set(fields):
+        kinetic = kinetic_stress(mean["mass"], mean["momentum"], mean["momentum_flux"])
     for field in fields:
         if field == "n":
             values = mean["number"][:, 0] * node_volumes
@@ -284,11 +300,10 @@ def derive(mean: dict[str, np.ndarray], fields: Sequence[str], node_volumes,
         elif field == "Omega":
             values = _ratio(mean["angular_momentum"], mean["inertia"])
         elif field == "T":
-            spin = mean["angular_momentum"]
-            i = mean["inertia"][:, 0]
-            rotational = mean["spin_energy"][:, 0] - np.divide(
-                np.sum(spin**2, axis=1), i, out=np.zeros_like(i), where=i > 0
-            )
+            if "frame_spin" in mean:
+                rotational = mean["frame_spin"][:, 0]
+            else:
+                rotational = spin_fluctuation(mean["inertia"], mean["angular_momentum"], mean["spin_energy"])
             translational = kinetic[:, :3].sum(axis=1)
             values = _ratio(translational + rotational, 6.0 * mean["number"][:, 0])
         elif field == "sigmac":

@@ -111,10 +111,12 @@ def conducting_plug(l_c):
     return lambda x: (1e-9 * np.cosh((W / 2 - x) / l_c)) ** (2.0 / 3.0)
 
 
-def test_a_case_built_on_the_papers_physics_passes_every_check(tmp_path):
+def test_a_case_built_on_the_papers_physics_passes_every_check(tmp_path, monkeypatch):
+    monkeypatch.setattr(mc, "LC_MIN_WIDTH", W)   # l_c is a comparison from the paper's width on; here W = 30
     case = make_case(tmp_path, "W~30/phi~0.6", build_profile(t_plug=conducting_plug(11.5)), thermo=thermo_with(0.004))
     checks = {c.quantity: c for c in mc.case_more_checks(case)}
-    assert set(checks) == {mc.Q_SXX, mc.Q_SXY, mc.Q_SPIN, mc.Q_SQRT_T, mc.Q_LOG_PHI, mc.Q_UCM, mc.Q_LC}
+    assert set(checks) == {mc.Q_SXX, mc.Q_SXY, mc.Q_SPIN, mc.Q_SQRT_T, mc.Q_LOG_PHI, mc.Q_UCM, mc.Q_LC, mc.Q_T_ORDERS}
+    checks.pop(mc.Q_T_ORDERS)                   # its own test: this profile's wall T is not the paper's
     # the plug's T built on eq. B13 with l_c = 11.5 d_p (from x = 11, where φ reaches 0.63, to the centre)
     assert checks[mc.Q_LC].ours == pytest.approx(11.5, rel=1e-4)
     # σ_xx flat: the line's change is 0 to rounding (errors 1e-3 of 50)
@@ -138,7 +140,29 @@ def test_a_case_built_on_the_papers_physics_passes_every_check(tmp_path):
             (c.quantity, c.ours, c.verdict)
 
 
-def test_profiles_against_the_paper_fail(tmp_path):
+def test_the_conduction_length_is_a_diagnostic_below_the_papers_width(tmp_path):
+    case = make_case(tmp_path, "W~30/phi~0.6", build_profile(t_plug=conducting_plug(11.5)))
+    row = by(mc.case_more_checks(case), mc.Q_LC)
+    assert W < mc.LC_MIN_WIDTH and row.kind == "diagnostic" and row.ours == pytest.approx(11.5, rel=1e-4)
+    assert row.verdict.startswith("diagnostic") and "W ≥ 100 d_p" in row.note
+
+
+def test_the_orders_of_magnitude_between_the_wall_and_the_centre_are_read_from_t(tmp_path):
+    for ratio, inside in ((1e-5, True), (1e-2, False)):
+        profile = build_profile(t_plug=conducting_plug(11.5))
+        centre = (profile["x"] - W / 2).abs() <= mc.CENTRE_HALF_WIDTH + 0.6
+        profile.loc[centre, "T"] = ratio * float(profile["T"].iloc[0])
+        profile.loc[centre, "T_se"] = 1e-3 * profile.loc[centre, "T"]
+        case = make_case(tmp_path, f"W~30/phi~0.6/{ratio:g}", profile)
+        row = by(mc.case_more_checks(case), mc.Q_T_ORDERS)
+        assert row.ours == pytest.approx(-math.log10(ratio), rel=1e-6)
+        assert row.error == pytest.approx(math.sqrt(1e-6 + 1e-6 / centre.sum() * 2) / math.log(10), rel=0.5)
+        assert (row.verdict == "within the paper's range") is inside, row.verdict
+        assert "T in the second bin" in row.variants
+
+
+def test_profiles_against_the_paper_fail(tmp_path, monkeypatch):
+    monkeypatch.setattr(mc, "LC_MIN_WIDTH", W)
     # σ_xx rising 2 per d_p towards the centre, σ_xy 1.3 times the weight, particles spinning at 0.3 ω,
     # d_p γ̇/√T falling from 2 in the wall bin to 1 beyond, φ exponential (Barker et al.'s form), u_cm fluctuating by 3 %
     bad = build_profile(phi=exponential_phi, sxx=lambda xw: 50.0 + 2.0 * xw, sxy_factor=1.3, spin=0.3,

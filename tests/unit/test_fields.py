@@ -303,3 +303,47 @@ def test_z_profile_equals_x_profile_of_the_rotated_frame():
         assert_allclose(tz[a], tx[b], rtol=1e-12, atol=1e-12)
     with pytest.raises(ValueError, match="axis"):
         XCoordinates(axis="r")
+
+
+def test_frame_fluctuations_leave_out_a_change_of_the_whole_bins_speed():
+    """fluctuation="frame": a bin whose particles all change speed together between frames has no T and
+    no kinetic stress; scatter about each frame's own mean is kept, and equals the window's reading when
+    the mean does not move."""
+    rng = np.random.default_rng(11)
+    W, n = 8.0, 400
+    base = make_frame(rng, n, W, velocity=np.zeros(3), omega=np.zeros(3))
+    noise = [rng.normal(0, 0.1, (n, 3)) for _ in range(6)]
+    spins = [rng.normal(0, 0.2, (n, 3)) for _ in range(6)]
+
+    def frames(shift):
+        return [ParticleFrame(k, base.box, base.position, noise[k] + shift * k * np.array([0, 1.0, 0]),
+                              base.mass, base.radius, spins[k]) for k in range(6)]
+
+    still_w = profile_from_frames(frames(0.0), W)
+    still_f = profile_from_frames(frames(0.0), W, fluctuation="frame")
+    moving_w = profile_from_frames(frames(0.5), W)
+    moving_f = profile_from_frames(frames(0.5), W, fluctuation="frame")
+    # the whole bin's speed steps by 0.5 per frame: the window's T gains the steps' variance, the frame's does not
+    assert_allclose(moving_f["T"], still_f["T"], rtol=1e-10)
+    assert (moving_w["T"] > 10 * still_w["T"]).all()
+    # without a moving mean the two readings differ only by the frames' bin means' scatter about the window's
+    assert_allclose(still_f["T"], still_w["T"], rtol=0.1)
+    # the frame's T is the scatter of each particle about its bin's mean at that instant, spin included
+    b = np.digitize(base.position[:, 0], channel_bin_edges((0.0, W))) - 1
+    expected = []
+    for j in range(len(moving_f)):
+        num = den = 0.0
+        for k in range(6):
+            pick = b == j
+            m, v, w = base.mass[pick], noise[k][pick], spins[k][pick]
+            vbar = (m[:, None] * v).sum(axis=0) / m.sum()
+            I = base.moment_of_inertia[pick]
+            wbar = (I[:, None] * w).sum(axis=0) / I.sum()
+            num += (m * ((v - vbar) ** 2).sum(axis=1)).sum() + (I * ((w - wbar) ** 2).sum(axis=1)).sum()
+            den += 6 * pick.sum()
+        expected.append(num / den)
+    assert_allclose(moving_f["T"], expected, rtol=1e-10)
+    assert_allclose(moving_f[[f"sigmak_{c}" for c in TENSOR]].to_numpy(),
+                    still_f[[f"sigmak_{c}" for c in TENSOR]].to_numpy(), rtol=1e-8, atol=1e-12)
+    with pytest.raises(ValueError, match="fluctuation"):
+        FieldAccumulator(HeavisideBins(channel_bin_edges((0.0, W))), XCoordinates(walls=(0.0, W)), fluctuation="bin")

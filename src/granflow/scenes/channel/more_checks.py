@@ -67,8 +67,15 @@ Q_SQRT_T = "d_p(du/dx)/√T: rise from the wall bin to the next"
 Q_LOG_PHI = "−ln φ linear in x in the shearing zone: p-value of curvature"
 Q_UCM = "u_cm relative standard deviation over the averaging window"
 Q_LC = "conduction length l_c of eq. B13 in the plug"
+Q_T_ORDERS = "T in the wall bin over T at the centre: orders of magnitude (log10)"
+#: conclusion (v): "4–5 orders of magnitude smaller than that at the wall"; §3.2 at W = 100 d_p: "more than five"
+T_ORDERS = (4.0, 6.0)
+#: the centre's T: the bins within this distance of the centre line, d_p
+CENTRE_HALF_WIDTH = 2.0
 #: the paper's conduction length, fig. 8(c) (W = 100 d_p)
 CONDUCTION_LENGTH = 11.5
+#: the paper fits l_c at W = 100 d_p (fig. 8c): a comparison from this width on, a diagnostic below it
+LC_MIN_WIDTH = 100.0
 Q_USLIP = "u_slip at the lower φ̄ over u_slip at the higher φ̄"
 Q_UMAX = "u_max at the lower φ̄ over u_max at the higher φ̄"
 Q_DELTA = "δ0.95 at the higher φ̄ over δ0.95 at the lower φ̄"
@@ -78,7 +85,7 @@ Q_MU_WALL = "μ_wall at the higher φ̄ minus at the lower φ̄"
 Q_T_SHEAR = "T in the shearing zones at the higher φ̄ over at the lower φ̄"
 Q_T_PLUG = "T in the plug at the higher φ̄ over at the lower φ̄"
 #: every quantity this module writes (paper_results.yaml's compared_by names them)
-QUANTITIES = (Q_SXX, Q_SXY, Q_SPIN, Q_SQRT_T, Q_LOG_PHI, Q_UCM, Q_LC, Q_USLIP, Q_UMAX, Q_DELTA, Q_PLUG, Q_SXX_PHI,
+QUANTITIES = (Q_SXX, Q_SXY, Q_SPIN, Q_SQRT_T, Q_LOG_PHI, Q_UCM, Q_LC, Q_T_ORDERS, Q_USLIP, Q_UMAX, Q_DELTA, Q_PLUG, Q_SXX_PHI,
               Q_MU_WALL, Q_T_SHEAR, Q_T_PLUG)
 INDEPENDENT = "bins taken as independent, each with its correlation-aware time-average error"
 
@@ -251,6 +258,22 @@ def conduction_length(a: ChannelAnalysis, x_from: float) -> dict:
             "chi2_nu": chi2_nu}
 
 
+def temperature_orders(a: ChannelAnalysis, wall_index: int = 0, centre_from: float | None = None) -> dict:
+    """log10 of T in a bin near the wall (``wall_index`` 0: the wall bin) over T at the centre (the weighted
+    mean over the folded bins within :data:`CENTRE_HALF_WIDTH` of it, or beyond ``centre_from``), and its error."""
+    x = a.folded["x"].to_numpy(float)
+    T, T_se = field_column(a, "T")
+    lo = 0.5 * a.W - CENTRE_HALF_WIDTH if centre_from is None else centre_from
+    pick = (x >= lo) & np.isfinite(T) & (T > 0) & np.isfinite(T_se) & (T_se > 0)
+    if not pick.any() or not (np.isfinite(T[wall_index]) and T[wall_index] > 0):
+        return {"orders": NAN, "se": NAN, "T_wall": NAN, "T_centre": NAN, "n": int(pick.sum())}
+    w = 1.0 / T_se[pick] ** 2
+    centre, centre_se = float(np.sum(w * T[pick]) / np.sum(w)), float(1.0 / math.sqrt(np.sum(w)))
+    rel = math.hypot(T_se[wall_index] / T[wall_index], centre_se / centre)
+    return {"orders": math.log10(T[wall_index] / centre), "se": rel / math.log(10.0), "T_wall": float(T[wall_index]),
+            "T_centre": centre, "n": int(pick.sum())}
+
+
 def case_more_checks(case) -> list[Check]:
     """This module's per-case rows for one :class:`.validation.ChannelCase` ([] without an analysis)."""
     a: ChannelAnalysis | None = case.analysis
@@ -334,13 +357,30 @@ def case_more_checks(case) -> list[Check]:
                                         if math.isfinite(edge) else NAN})
     out.append(Check(Q_LC, "≈ 11.5 d_p (fits of eq. B13 to the plug's T, W = 100 d_p)", "§3.2, fig. 8(c); eq. (B13)",
                      lc["l_c"], lc["se"], name, (CONDUCTION_LENGTH, CONDUCTION_LENGTH), unit="d_p", syst=syst,
-                     variants=text,
+                     variants=text, kind="comparison" if a.W >= LC_MIN_WIDTH - 1e-9 else "diagnostic",
                      note=f"T^(3/2) = T_c^(3/2) cosh((W/2 − x)/l_c) (eq. B13 with zero flux at the centre, the paper's "
                           f"fit) over the {lc['n']} folded bins from where φ reaches 0.63 (x = {edge:.3g} d_p) to the "
                           f"centre; χ²/ν = {lc['chi2_nu']:.2g}; {INDEPENDENT}, error scaled by √(χ²/ν) when above 1. "
-                          f"The paper's plug at W = 100 d_p is wider than ours at W = {a.W:g} d_p"
+                          + (f"A comparison at W ≥ {LC_MIN_WIDTH:g} d_p, where the paper fits it; at W = {a.W:g} d_p "
+                             f"the plug is narrower and the fit a diagnostic (a cosh over a short plug reads its "
+                             f"width as much as the conduction; docs/validation.md)" if a.W < LC_MIN_WIDTH - 1e-9 else
+                             f"The paper's plug at W = 100 d_p; ours at W = {a.W:g} d_p")
                           + ("" if math.isfinite(lc["l_c"]) or not lc["n"] else
                              ". T does not rise towards the plug edge as a cosh does: no finite l_c")))
+
+    orders = temperature_orders(a)
+    var = {"T in the second bin, not the wall bin": temperature_orders(a, wall_index=1)["orders"]}
+    if math.isfinite(a.zones.x_plug_phi063):
+        var["T at the centre: the whole plug (φ ≥ 0.63)"] = temperature_orders(a, centre_from=a.zones.x_plug_phi063)["orders"]
+    syst, text = systematic(orders["orders"], var)
+    out.append(Check(Q_T_ORDERS, "4–5 (conclusion v); 'more than five' at W = 100 d_p (§3.2): read as 4 to 6",
+                     "§3.2, fig. 8(c); conclusion (v)", orders["orders"], orders["se"], name, T_ORDERS, syst=syst,
+                     variants=text,
+                     note=f"log10(T_wall/T_centre): T = {orders['T_wall']:.3g} g d_p in the wall bin, "
+                          f"{orders['T_centre']:.3g} at the centre (weighted mean of the {orders['n']} folded bins within "
+                          f"{CENTRE_HALF_WIDTH:g} d_p of it); T is eq. (2.3), each particle's fluctuation about its bin's "
+                          f"mean velocity in the same frame (about the window's mean the plug's change of speed would "
+                          f"count as agitation); {INDEPENDENT}. The paper's figure is at W = 100 d_p, ours W = {a.W:g}"))
 
     phi_mean = float(case.record["parameters"]["phi_mean"])
     thermo_path = case.path / "run" / "thermo.csv"

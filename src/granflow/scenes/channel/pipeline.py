@@ -22,6 +22,8 @@ from postproc.fields import profile_from_frames
 #: profile columns (and prefixes of columns) that carry one power of mass
 MASS_COLUMNS = ("rho", "T")
 MASS_PREFIXES = ("sigma_", "sigmac_", "sigmak_")
+#: what the channel's T and kinetic stress are fluctuations about (postproc.fields): each frame's bin mean
+FLUCTUATION = "frame"
 
 
 def to_paper_units(profile: pd.DataFrame, density: float) -> pd.DataFrame:
@@ -88,8 +90,11 @@ def channel_profile(case_dir: str | Path, n_blocks: int = 8, t_window: tuple[flo
     frames = list(particle_frames(dumps, record["dt"], t_window))
     if not frames:
         raise ValueError(f"{case_dir}: no frames in {', '.join(map(str, dumps))}")
+    # T and the kinetic stress about each frame's own bin velocity, as the paper's eqs. 2.1-2.4 read (the N
+    # particles in a bin at one instant): about the window's mean the plug's change of speed counts as agitation
     profile = profile_from_frames(frames, W=record["parameters"]["W"], bin_width=knobs["bin_width"],
-                                  wall_bin_width=knobs["wall_bin_width"], n_blocks=n_blocks)
+                                  wall_bin_width=knobs["wall_bin_width"], n_blocks=n_blocks,
+                                  fluctuation=FLUCTUATION)
     facts = {"total_mass": float(frames[0].mass.sum()), "n_frames": len(frames),
              "n_particles": int(len(frames[0].mass))}
     return to_paper_units(profile, record["density"]), facts

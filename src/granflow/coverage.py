@@ -3,7 +3,9 @@
 A scene with a paper lists every quantitative result the paper states in ``paper_results.yaml`` in its
 package (found through :mod:`granflow.registry`): an ``id``, the ``result`` as the paper states it,
 ``where`` (section, figure, equation), the ``form`` it is stated in, and either ``compared_by`` (the
-``quantity`` of each check of the record that tests it) or ``not_compared`` (why none does). A mapping
+``quantity`` of each check of the record that tests it) or ``not_compared`` (why none does). An item of ``compared_by`` may name a row of the scene's ladder
+instead of the record (``{quantity, ladder: <rung or pool>}``, a row of ``validation/<scene>/ladder.csv``):
+a result that only runs beside the record can measure (a pool across feed rates, say) is compared there. A mapping
 whose rows are forced by a definition (``kind: consistency``) or read a measurement choice
 (``kind: diagnostic``) is kept, with its reason, but does not count as compared; ``kind`` may be given
 for the whole entry or for one item of ``compared_by``.
@@ -36,9 +38,12 @@ FORMS = ("value", "range", "bound", "law", "scaling", "trend", "shape", "collaps
 _TEXT = {"type": "string", "minLength": 1}
 _ROW = {"anyOf": [
     {**_TEXT, "description": "the quantity of a check row"},
-    {"type": "object", "required": ["quantity", "kind"], "additionalProperties": False,
+    {"type": "object", "required": ["quantity"], "additionalProperties": False,
+     "anyOf": [{"required": ["kind"]}, {"required": ["ladder"]}],
      "properties": {"quantity": {**_TEXT, "description": "the quantity of a check row"},
-                    "kind": {"enum": list(KINDS), "description": "what this row is for this result"}}},
+                    "kind": {"enum": list(KINDS), "description": "what this row is for this result"},
+                    "ladder": {**_TEXT, "description": "the rung or pool of the scene's ladder whose row of "
+                                                       "validation/<scene>/ladder.csv this is (not the record's)"}}},
 ]}
 #: the schema of one entry; the rules between keys are :func:`_entry_problems`'
 ENTRY_SCHEMA = {
@@ -100,7 +105,8 @@ def _where(data: dict, path: list) -> str:
 
 def _message(err: jsonschema.ValidationError) -> str:
     if err.validator == "anyOf":
-        return f"{err.instance!r} is neither a quantity (a string) nor {{quantity, kind}} with kind one of {KINDS}"
+        return (f"{err.instance!r} is neither a quantity (a string) nor {{quantity, kind}} with kind one of {KINDS} "
+                f"nor {{quantity, ladder}} naming a rung or pool of the scene's ladder")
     if err.validator == "additionalProperties":
         allowed = sorted(err.schema.get("properties", {}))
         extra = sorted(set(err.instance) - set(allowed))
@@ -118,14 +124,30 @@ def rows(entry: dict) -> list[tuple[str, str]]:
         One entry of ``results``.
     """
     default = entry.get("kind", "comparison")
-    return [(item, default) if isinstance(item, str) else (item["quantity"], item["kind"])
-            for item in entry.get("compared_by", [])]
+    return [(item, default) if isinstance(item, str) else (item["quantity"], item.get("kind", default))
+            for item in entry.get("compared_by", []) if isinstance(item, str) or "ladder" not in item]
+
+
+def ladder_rows(entry: dict) -> list[tuple[str, str, str]]:
+    """``(quantity, kind, rung)`` of every row an entry names in the scene's ladder (an item of
+    ``compared_by`` with ``ladder``: a row of ``validation/<scene>/ladder.csv`` whose ``rung`` is that rung or
+    pool), the entry's ``kind`` (default ``comparison``) for an item that gives none.
+
+    Parameters
+    ----------
+    entry : dict
+        One entry of ``results``.
+    """
+    default = entry.get("kind", "comparison")
+    return [(item["quantity"], item.get("kind", default), item["ladder"])
+            for item in entry.get("compared_by", []) if isinstance(item, dict) and "ladder" in item]
 
 
 def _entry_problems(entry: dict) -> list[tuple[str, str]]:
     """``(key, problem)`` for each rule between an entry's keys that it breaks."""
     out = []
     compares = [q for q, kind in rows(entry) if kind == "comparison"]
+    compares += [f"{q} (ladder {rung})" for q, kind, rung in ladder_rows(entry) if kind == "comparison"]
     if "kind" in entry and "compared_by" not in entry:
         out.append(("kind", "given without compared_by (kind says what the rows of compared_by are)"))
     if not entry.get("compared_by") and "not_compared" not in entry:
@@ -214,11 +236,12 @@ def is_comparison(check: dict) -> bool:
     return kind is None or kind == "" or kind == "comparison"
 
 
-def count(entries: list[dict], checks: list[dict]) -> tuple[int, int, list[tuple[str, str]]]:
+def count(entries: list[dict], checks: list[dict], ladder=()) -> tuple[int, int, list[tuple[str, str]]]:
     """How many of a paper's results the checks compare.
 
     A result is compared when one of its comparison rows (:func:`rows`) is the quantity of a check
-    that is a comparison (:func:`is_comparison`) and holds a number (:func:`measured`).
+    that is a comparison (:func:`is_comparison`) and holds a number (:func:`measured`), or one of its
+    ladder rows (:func:`ladder_rows`) is such a row of the ladder's table under that rung or pool.
 
     Parameters
     ----------
@@ -226,6 +249,8 @@ def count(entries: list[dict], checks: list[dict]) -> tuple[int, int, list[tuple
         The ``results`` of a ``paper_results.yaml``.
     checks : list of dict
         The record's checks, each with a ``quantity`` and possibly a ``kind``.
+    ladder : iterable of dict
+        The rows of ``validation/<scene>/ladder.csv`` (``rung``, ``quantity``, ``ours``, ``kind``).
 
     Returns
     -------
@@ -237,24 +262,27 @@ def count(entries: list[dict], checks: list[dict]) -> tuple[int, int, list[tuple
     """
     compared_quantities = {c["quantity"] for c in checks if is_comparison(c) and measured(c)}
     unmeasured = {c["quantity"] for c in checks if is_comparison(c)} - compared_quantities
+    on_ladder = {(str(r.get("rung")), r.get("quantity")) for r in ladder if is_comparison(r) and measured(r)}
     n_compared, not_compared = 0, []
     for entry in entries:
         compares = [q for q, kind in rows(entry) if kind == "comparison"]
-        if any(q in compared_quantities for q in compares):
+        rungs = [(rung, q) for q, kind, rung in ladder_rows(entry) if kind == "comparison"]
+        if any(q in compared_quantities for q in compares) or any(r in on_ladder for r in rungs):
             n_compared += 1
         elif any(q in unmeasured for q in compares):
             not_compared.append((entry["id"], "its rows are in the record but not measured (no number): "
                                               + "; ".join(q for q in compares if q in unmeasured)))
-        elif compares:
-            not_compared.append((entry["id"], "no comparison check of the record has its rows: "
-                                              + "; ".join(compares)))
+        elif compares or rungs:
+            where = "the record or the ladder" if rungs else "the record"
+            not_compared.append((entry["id"], f"no comparison check of {where} has its rows: "
+                                              + "; ".join(compares + [f"{q} (ladder {r})" for r, q in rungs])))
         else:
             not_compared.append((entry["id"], entry["not_compared"]))
     return n_compared, len(entries), not_compared
 
 
-def coverage(scene_name: str, checks: list[dict]) -> tuple[int, int, list[tuple[str, str]]]:
-    """:func:`count` of the scene's ``paper_results.yaml`` against ``checks``.
+def coverage(scene_name: str, checks: list[dict], ladder=()) -> tuple[int, int, list[tuple[str, str]]]:
+    """:func:`count` of the scene's ``paper_results.yaml`` against ``checks`` (and the ladder's rows).
 
     Parameters
     ----------
@@ -262,17 +290,20 @@ def coverage(scene_name: str, checks: list[dict]) -> tuple[int, int, list[tuple[
         A scene with a ``paper_results.yaml`` (else :class:`~granflow.yamlio.ConfigError`).
     checks : list of dict
         The record's checks (``summary.json``'s ``checks``).
+    ladder : iterable of dict
+        The rows of the scene's ``ladder.csv`` (:func:`count`).
     """
     path = paper_results_path(scene_name)
     if path is None:
         raise ConfigError(f"scene {scene_name!r} has no {FILE_NAME} in its package: its paper's results are "
                           f"not listed")
-    return count(load(path)["results"], checks)
+    return count(load(path)["results"], checks, ladder)
 
 
-def coverage_line(scene_name: str, checks: list[dict]) -> str:
+def coverage_line(scene_name: str, checks: list[dict], ladder=()) -> str:
     """``coverage: N of M results of the paper compared`` for the scene, ``''`` when it has no
-    ``paper_results.yaml``.
+    ``paper_results.yaml``; when the ladder's rows compare some that the record does not, the line says
+    how many (``(K of them by the ladder's rungs)``).
 
     Parameters
     ----------
@@ -280,8 +311,13 @@ def coverage_line(scene_name: str, checks: list[dict]) -> str:
         A scene of :mod:`granflow.registry`.
     checks : list of dict
         The record's checks (``summary.json``'s ``checks``).
+    ladder : iterable of dict
+        The rows of the scene's ``ladder.csv`` (:func:`count`).
     """
     if paper_results_path(scene_name) is None:
         return ""
-    n_compared, n_total, _ = coverage(scene_name, checks)
-    return f"coverage: {n_compared} of {n_total} results of the paper compared"
+    ladder = list(ladder)
+    n_compared, n_total, _ = coverage(scene_name, checks, ladder)
+    by_ladder = n_compared - coverage(scene_name, checks)[0]
+    tail = f" ({by_ladder} of them by the ladder's rungs)" if by_ladder else ""
+    return f"coverage: {n_compared} of {n_total} results of the paper compared{tail}"

@@ -489,6 +489,18 @@ restart, so it can be split over sittings) and rewrites this folder. Do not edit
 """
 
 
+def ladder_rows(scene_folder: Path) -> list[dict]:
+    """The rows of ``scene_folder/ladder.csv`` as dicts of strings ([] without one): what
+    :func:`granflow.coverage.count` reads of a ladder."""
+    path = Path(scene_folder) / "ladder.csv"
+    if not path.is_file():
+        return []
+    import csv
+
+    with open(path, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
 def write_readme(folder: Path) -> str:
     """Write ``folder/README.md`` from every ``folder/<scene>/summary.json``; return the text."""
     folder = Path(folder)
@@ -504,7 +516,8 @@ def write_readme(folder: Path) -> str:
     text += readme_table(summaries) + "\n"
     text += "".join(f"- {s['scene']}: {s['note']}\n" for s in summaries if s.get("note"))
     # how much of each paper the record compares (granflow.coverage: the scene's paper_results.yaml)
-    text += "".join(f"- {s['scene']}: {line}\n" for s in summaries if (line := coverage_line(s["scene"], s["checks"])))
+    text += "".join(f"- {s['scene']}: {line}\n" for s in summaries
+                    if (line := coverage_line(s["scene"], s["checks"], ladder_rows(folder / s["scene"]))))
     text += "\n" if any(s.get("note") for s in summaries) else ""
     text += "## Cost\n\n| scene | cases | particles | CPU-hours | commit | LAMMPS |\n|---|---|---|---|---|---|\n"
     for s in summaries:

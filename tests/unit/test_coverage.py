@@ -4,6 +4,7 @@ import csv
 from pathlib import Path
 
 import pytest
+import yaml
 
 from granflow import coverage, registry
 from granflow.yamlio import ConfigError
@@ -180,3 +181,46 @@ def test_every_problem_is_listed_one_a_line(tmp_path):
     assert any("(top level): 'paper' is a required property" in line for line in lines)
     assert any("results[1] (id 'two'): compared_by: [] should be non-empty" in line for line in lines)
     assert any("results[0] (id 'one'): compared_by: neither compared_by nor not_compared" in line for line in lines)
+
+
+def ladder_quantities(scene_name: str) -> set[tuple[str, str]]:
+    """``(rung, quantity)`` of every row of the committed ``validation/<scene>/ladder.csv`` (none without one)."""
+    path = ROOT / "validation" / scene_name / "ladder.csv"
+    if not path.exists():
+        return set()
+    with open(path, newline="", encoding="utf-8") as f:
+        return {(row["rung"], row["quantity"]) for row in csv.DictReader(f)}
+
+
+@pytest.mark.parametrize("scene_name", WITH_TABLE)
+def test_every_ladder_row_named_is_a_row_of_the_committed_ladder(scene_name):
+    held = ladder_quantities(scene_name)
+    entries = coverage.load(TABLES[scene_name])["results"]
+    missing = [(e["id"], rung, q) for e in entries for q, _, rung in coverage.ladder_rows(e) if (rung, q) not in held]
+    assert missing == []
+
+
+def test_a_result_compared_only_by_a_ladder_row_counts_and_the_line_says_so(monkeypatch, tmp_path):
+    entries = [
+        {"id": "on_record", "result": "x = 1", "where": "§1", "form": "value", "compared_by": ["x"]},
+        {"id": "on_ladder", "result": "a ≈ 0.22 across runs", "where": "§2", "form": "scaling",
+         "compared_by": [{"quantity": "a", "ladder": "pool"}, {"quantity": "a (one case)", "kind": "diagnostic"}]},
+    ]
+    coverage.validate({"paper": "A. Author (2000), a paper", "results": entries}, "synthetic")
+    checks = [{"quantity": "x", "ours": "1.0"}, {"quantity": "a (one case)", "ours": "0.3", "kind": "diagnostic"}]
+    ladder = [{"rung": "pool", "quantity": "a", "ours": "0.24", "kind": "comparison"},
+              {"rung": "other", "quantity": "a", "ours": "0.5", "kind": "comparison"}]
+    assert coverage.count(entries, checks)[0] == 1
+    assert coverage.count(entries, checks, ladder)[0] == 2
+    # a ladder row of another rung, or one without a number, or a diagnostic does not count
+    for rows in ([ladder[1]], [{**ladder[0], "ours": ""}], [{**ladder[0], "kind": "diagnostic"}]):
+        n, _, why = coverage.count(entries, checks, rows)
+        assert n == 1 and "ladder pool" in dict(why)["on_ladder"]
+    path = tmp_path / "paper_results.yaml"
+    path.write_text(yaml.safe_dump({"paper": "A. Author (2000), a paper", "results": entries}, allow_unicode=True))
+    monkeypatch.setattr(coverage, "paper_results_path", lambda name: path)
+    assert coverage.coverage_line("s", checks, ladder) == ("coverage: 2 of 2 results of the paper compared "
+                                                          "(1 of them by the ladder's rungs)")
+    assert coverage.coverage_line("s", checks) == "coverage: 1 of 2 results of the paper compared"
+    with pytest.raises(ConfigError, match="ladder"):
+        coverage.validate({"paper": "p", "results": [{**entries[0], "compared_by": [{"quantity": "x"}]}]}, "bad")

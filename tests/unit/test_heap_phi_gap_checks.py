@@ -231,7 +231,9 @@ def test_every_row_waits_in_the_pending_file_under_an_id_of_the_paper():
     assert set(pending) <= set(entries)
     listed = {(q if isinstance(q, str) else q["quantity"]): (None if isinstance(q, str) else q["kind"])
               for qs in pending.values() for q in qs}
-    assert set(listed) == set(pc.QUANTITIES) | set(gc.QUANTITIES)
+    from granflow.scenes.heap import shear_checks as sc
+
+    assert set(listed) == set(pc.QUANTITIES) | set(gc.QUANTITIES) | set(sc.QUANTITIES)
     # the one reading row is listed as such, the comparisons as comparisons
     assert {q for q, kind in listed.items() if kind} == {pc.Q_ABOVE_UP} and listed[pc.Q_ABOVE_UP] == "diagnostic"
     # until the record holds them, each of these results stays not compared

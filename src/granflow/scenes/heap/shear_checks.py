@@ -41,6 +41,10 @@ DEPTH, DEPTH_VARIANTS = 2.0, (1.5, 3.0)
 LAYER_ZT = (-1.0, 0.0)
 NAN = float("nan")
 SOURCE = "§3.2.1, Fig. 5b"
+Q_TOP = f"γ̇(z): its largest value deeper than {TOP:g} d̄ over its largest in the top {TOP:g} d̄"
+Q_ALONG = f"γ̇ at {DEPTH:g} d̄ below the surface: relative slope along x/L"
+#: every row's quantity
+QUANTITIES = (Q_TOP, Q_ALONG)
 MIXTURE_NOTE = "the paper's Fig. 5 is the 1.5 mm monodisperse heap, ours the record's mixture"
 
 
@@ -99,8 +103,7 @@ def per_bin(col: pd.DataFrame, sw: pd.DataFrame, method: str = "gradient", depth
 def shear_rate_checks(case: str, col: pd.DataFrame, sw: pd.DataFrame) -> list[Check]:
     """The two rows of the module docstring for one case (``col``: its collapse, ``sw``: its usable bins
     with ``delta``, ``d_bar`` and ``u_s``)."""
-    q_top = f"γ̇(z): its largest value deeper than {TOP:g} d̄ over its largest in the top {TOP:g} d̄"
-    q_along = f"γ̇ at {DEPTH:g} d̄ below the surface: relative slope along x/L"
+    q_top, q_along = Q_TOP, Q_ALONG
     paper_top = "> 1: rises 'slightly' to a maximum a few particles below the surface"
     need = {"delta", "d_bar", "u_s"}
     if col.empty or not need <= set(sw.columns):

@@ -227,14 +227,42 @@ def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
 
 
 def kinetic_stress(mass: np.ndarray, momentum: np.ndarray, flux: np.ndarray) -> np.ndarray:
-    """:math:`F_{ab} - P_a P_b / \\rho`, zero (not NaN) where there is no mass."""
+    """:math:`F_{ab} - P_a P_b / \\rho`, zero (not NaN) where there is no mass.
+
+    Parameters
+    ----------
+    mass : ndarray, shape (n, 1)
+        Mass density :math:`\\rho`.
+    momentum : ndarray, shape (n, 3)
+        Momentum density :math:`P`.
+    flux : ndarray, shape (n, 6)
+        Momentum flux density :math:`F` (xx yy zz xy xz yz).
+
+    Returns
+    -------
+    ndarray, shape (n, 6)
+    """
     pp = np.column_stack([momentum[:, a] * momentum[:, b] for a, b in _PAIRS])
     return flux - np.divide(pp, mass, out=np.zeros_like(pp), where=mass > 0)
 
 
 
 def spin_fluctuation(inertia: np.ndarray, angular_momentum: np.ndarray, spin_energy: np.ndarray) -> np.ndarray:
-    """:math:`E - |L|^2 / I` (the spin's energy about the node's mean spin, times 2), zero where I = 0."""
+    """:math:`E - |L|^2 / I` (the spin's energy about the node's mean spin, times 2), zero where I = 0.
+
+    Parameters
+    ----------
+    inertia : ndarray, shape (n, 1)
+        Moment-of-inertia density :math:`I`.
+    angular_momentum : ndarray, shape (n, 3)
+        Angular momentum density :math:`L`.
+    spin_energy : ndarray, shape (n, 1)
+        :math:`\\sum_i I_i \\omega_i^2` density :math:`E`.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
     i = inertia[:, 0]
     return spin_energy[:, 0] - np.divide(np.sum(angular_momentum**2, axis=1), i, out=np.zeros_like(i), where=i > 0)
 

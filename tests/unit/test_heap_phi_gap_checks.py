@@ -1,6 +1,6 @@
 """The heap's rows on φ in depth and across the gap (granflow.scenes.heap.phi_checks, gap_checks) on hand-made
 analysis tables: each row recovers the number the tables were built with, passes when the tables hold what the
-paper states and fails when they do not; the rows wait in paper_results_pending.yaml under ids of
+paper states and fails when they do not; each row is named by an entry of
 paper_results.yaml."""
 from __future__ import annotations
 
@@ -223,18 +223,16 @@ def test_the_record_reads_the_new_tables_of_a_case(tmp_path):
         assert made[q].ours == pytest.approx(direct[q].ours, rel=1e-9)
 
 
-def test_every_row_waits_in_the_pending_file_under_an_id_of_the_paper():
-    # the rows wait in paper_results_pending.yaml, each under an id of paper_results.yaml, until the record holds
-    # them (tests/unit/test_coverage.py requires every compared_by row to be a row of checks.csv)
-    entries = {e["id"]: e for e in coverage.load(coverage.paper_results_path("heap"))["results"]}
-    pending = yaml.safe_load(Path(pc.__file__).with_name("paper_results_pending.yaml").read_text())["compared_by"]
-    assert set(pending) <= set(entries)
-    listed = {(q if isinstance(q, str) else q["quantity"]): (None if isinstance(q, str) else q["kind"])
-              for qs in pending.values() for q in qs}
+def test_every_row_compares_a_result_of_the_paper():
+    # the rows waited in paper_results.yaml's pending file until the record held them (its rewrite of 2026-11-28, two
+    # seeds); now each is named by an entry of paper_results.yaml (tests/unit/test_coverage.py requires every
+    # compared_by row to be a row of validation/heap/checks.csv)
     from granflow.scenes.heap import shear_checks as sc
 
-    assert set(listed) == set(pc.QUANTITIES) | set(gc.QUANTITIES) | set(sc.QUANTITIES)
-    # the one reading row is listed as such, the comparisons as comparisons
-    assert {q for q, kind in listed.items() if kind} == {pc.Q_ABOVE_UP} and listed[pc.Q_ABOVE_UP] == "diagnostic"
-    # until the record holds them, each of these results stays not compared
-    assert all("not_compared" in entries[i] and "compared_by" not in entries[i] for i in pending)
+    entries = coverage.load(coverage.paper_results_path("heap"))["results"]
+    named = {q: kind for e in entries for q, kind in coverage.rows(e)}
+    assert set(pc.QUANTITIES) | set(gc.QUANTITIES) | set(sc.QUANTITIES) <= set(named)
+    # the one reading row is named as such, the others as comparisons
+    rows = set(pc.QUANTITIES) | set(gc.QUANTITIES) | set(sc.QUANTITIES)
+    assert {q for q in rows if named[q] != "comparison"} == {pc.Q_ABOVE_UP} and named[pc.Q_ABOVE_UP] == "diagnostic"
+    assert not (Path(pc.__file__).with_name("paper_results_pending.yaml")).exists()

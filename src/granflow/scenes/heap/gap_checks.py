@@ -23,7 +23,7 @@ import pandas as pd
 
 from granflow.validation import Check, systematic
 
-from . import analysis as hp
+import granflow.scenes.heap.analysis as hp
 from .phi_checks import missing, with_status
 from .profile_checks import BINS_INDEPENDENT, X_RANGE, X_VARIANTS, mean_se, within
 

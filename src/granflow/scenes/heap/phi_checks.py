@@ -37,7 +37,7 @@ import pandas as pd
 
 from granflow.validation import Check, systematic
 
-from . import analysis as hp
+import granflow.scenes.heap.analysis as hp
 from .profile_checks import BINS_INDEPENDENT, X_RANGE, X_VARIANTS, mean_se, within
 
 NAN = float("nan")

@@ -106,19 +106,18 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import replace
-from typing import Iterable, Sequence
+from typing import Sequence
 
 import numpy as np
 import pandas as pd
 
 from .blocks import SUBBLOCKS_PER_BLOCK, ConcludedResult, BlockedSums, time_average_errors
 from .contacts import ContactFrame, branch_quadrature
-from .coordinates import XCoordinates
 from .fields_definitions import (ALL_FIELDS, FIELD_PRIMITIVES, FIELDS, FLUCTUATIONS, FRAME_WIDTHS,  # noqa: F401
                                  PRESSURES, PRIMITIVES, SPECIES_FIELDS, SPECIES_PRIMITIVES, VECTOR, derive,
                                  field_columns, kinetic_stress, species_columns, spin_fluctuation)
 from .frame import ParticleFrame
-from .kernels import HeavisideBins, channel_bin_edges
+from .kernels import HeavisideBins
 from .overlap import slab_pairs
 
 #: Below this fraction of the particles' kernel weight on the grid, :meth:`FieldAccumulator.conclude`
@@ -566,47 +565,3 @@ def _kernel_width(kernel) -> float:
     if hasattr(kernel, "width"):
         return float(kernel.width)
     return float(min(np.min(np.diff(e)) for e in kernel.edges))
-
-
-def profile_from_frames(
-    frames: Iterable[ParticleFrame],
-    W: float,
-    bin_width: float = 1.0,
-    wall_bin_width: float = 1.5,
-    n_blocks: int = 8,
-    fluctuation: str = "window",
-) -> pd.DataFrame:
-    """Channel profiles across :math:`x` in Heaviside bins (Debnath et al. 2022).
-
-    Walls at :math:`x = 0` and :math:`x = W`; bins from
-    :func:`postproc.kernels.channel_bin_edges`. All available fields are
-    computed.
-
-    Parameters
-    ----------
-    frames : iterable of ParticleFrame
-    W : float
-        Channel width, length units.
-    bin_width, wall_bin_width : float
-        Interior and wall bin widths, length units.
-    n_blocks : int
-        Blocks for standard errors.
-    fluctuation : str
-        ``window`` or ``frame``: what T and the kinetic stress are fluctuations about (module docstring).
-
-    Returns
-    -------
-    pandas.DataFrame
-        See :meth:`FieldAccumulator.conclude`.
-    """
-    walls = (0.0, float(W))
-    accumulator = FieldAccumulator(
-        HeavisideBins(channel_bin_edges(walls, bin_width, wall_bin_width)),
-        XCoordinates(walls=walls),
-        n_blocks=n_blocks,
-        fluctuation=fluctuation,
-    )
-    accumulator.prepare()
-    for frame in frames:
-        accumulator.accumulate(frame)
-    return accumulator.conclude()

@@ -5,7 +5,8 @@ from numpy.testing import assert_allclose
 from scipy.special import erf
 
 from postproc.coordinates import RZCoordinates, XCoordinates
-from postproc.fields import FIELDS, FieldAccumulator, field_columns, profile_from_frames
+from postproc.channel_profile import profile_from_frames
+from postproc.fields import FIELDS, FieldAccumulator, field_columns
 from postproc.frame import ParticleFrame
 from postproc.kernels import Gaussian, HeavisideBins, channel_bin_edges
 

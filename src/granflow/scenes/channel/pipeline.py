@@ -17,7 +17,7 @@ import pandas as pd
 from granflow.case import case_inputs
 from granflow.registry import finite as _finite
 from postproc.dump import particle_frames
-from postproc.fields import profile_from_frames
+from postproc.channel_profile import profile_from_frames
 
 #: profile columns (and prefixes of columns) that carry one power of mass
 MASS_COLUMNS = ("rho", "T")

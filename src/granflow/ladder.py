@@ -7,8 +7,11 @@ runs the first rung's cases again with another random seed and nothing else: the
 rung's second sample (:func:`scatter_lines`). A ``series:`` entry names rungs that turn one knob by steps and reads
 the straight line through them at chosen points, such as the paper's size (:func:`series_fit`). A ``pools:`` entry
 reads rungs run apart as one record (:func:`pool_checks`): the scene's validation over all their cases gives the
-rows only a sweep across the rungs can, such as a scaling across feed rates. Every rung and pool declares
-``from_paper``, its order from the paper's setup (0 the paper's), which ``ladder.csv`` carries.
+rows only a sweep across the rungs can, such as a scaling across feed rates. A ``contrasts:`` entry reads one rung
+against a reference (another rung, or the committed record) row by row, for a paper's claim that a knob changes
+nothing or moves a quantity one way (:mod:`granflow.ladder_contrasts`); its rows' state starts ``contrast``, so
+they stay out of the cost pictures and the planner. Every rung, pool and contrast declares ``from_paper``, its
+order from the paper's setup (0 the paper's), which ``ladder.csv`` carries.
 
 The ladders are targets of the workflow (``snakemake ladder``, ``snakemake ladder_<scene>``): each rung run is a
 one-scene campaign in memory (:func:`rung_campaign`: the scene file changed and validated exactly as a
@@ -35,6 +38,7 @@ import pandas as pd
 
 from granflow import registry
 from granflow.config import ConfigError, load_yaml
+from granflow.ladder_contrasts import RECORD, check_contrasts, contrast_checks, reference_label
 from granflow.scene_files import check_scene_sweep, load_scene
 from granflow.schema import PROJECT_ROOT
 from granflow.validation import case_summary, format_with_errors, scene_validation
@@ -60,15 +64,16 @@ def load_ladder(path: Path) -> dict:
     if data["scene"] not in registry.names():
         raise ConfigError(f"ladder: {path}: scene = {data['scene']!r}: allowed one of "
                           f"{', '.join(map(repr, registry.names()))} (the registered scenes)")
-    pools = data.get("pools") or []
-    names = [r.get("name") for r in data["rungs"] + (data.get("planned") or []) + pools]
+    pools, contrasts = data.get("pools") or [], data.get("contrasts") or []
+    names = [r.get("name") for r in data["rungs"] + (data.get("planned") or []) + pools + contrasts]
     for pool in pools:
         pooled = pool.get("rungs")
         if not (isinstance(pooled, list) and len(set(pooled)) >= 2 and set(pooled) <= set(names) - {pool.get("name")}
                 and isinstance(pool.get("knob"), str)):
             raise ConfigError(f"ladder: {path}: pool {pool.get('name')!r}: rungs = {pooled!r}: allowed a list of two "
                               f"or more rung names of this ladder, with a knob in words")
-    for rung in data["rungs"] + (data.get("planned") or []) + pools:
+    check_contrasts(data, path)
+    for rung in data["rungs"] + (data.get("planned") or []) + pools + contrasts:
         name = rung.get("name")
         if not isinstance(name, str) or not RUNG_NAME.fullmatch(name) or names.count(name) > 1:
             raise ConfigError(f"ladder: {path}: rung name = {name!r}: allowed a name of letters, digits and _ "
@@ -92,7 +97,7 @@ def with_from_paper(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
     """The ladder table with each rung's ``from_paper`` (its order from the paper's setup, from the ladder
     file) as the column after ``knob``; an earlier ``from_paper`` column is replaced."""
     order = {r["name"]: r["from_paper"] for r in ladder["rungs"] + (ladder.get("planned") or []) +
-             (ladder.get("pools") or [])}
+             (ladder.get("pools") or []) + (ladder.get("contrasts") or [])}
     out = df.drop(columns=["from_paper"], errors="ignore")
     out.insert(list(out.columns).index("knob") + 1 if "knob" in out else 0, "from_paper",
                [order.get(name, np.nan) for name in out["rung"]])
@@ -102,7 +107,8 @@ def with_from_paper(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
 def order_line(ladder: dict) -> str:
     """The ladder's order of its rungs from the paper's setup, as ``ladder.md`` says it (nothing for a ladder
     that declares none: :func:`load_ladder` refuses a file without it)."""
-    rungs = ladder["rungs"] + (ladder.get("planned") or []) + (ladder.get("pools") or [])
+    rungs = ladder["rungs"] + (ladder.get("planned") or []) + (ladder.get("pools") or []) + \
+        (ladder.get("contrasts") or [])
     if "from_paper_order" not in ladder or any("from_paper" not in r for r in rungs):
         return ""
     rungs = sorted(rungs, key=lambda r: r["from_paper"])
@@ -243,31 +249,72 @@ def pool_checks(ladder: dict, pool: dict, results: Path) -> tuple[list, list[dic
     return (*_headline_checks(ladder, base, cases, pool.get("headlines") or ladder["headlines"]), "")
 
 
-def committed_checks(ladder: dict) -> tuple[list, list[dict]]:
+def contrast_table_checks(ladder: dict, contrast: dict, results: Path) -> tuple[list, list[dict], str]:
+    """A contrast's rows (:func:`granflow.ladder_contrasts.contrast_checks`), the rung's case summaries, and what
+    it waits for ("" when both sides are measured): the rung's checks from its analysed cases, the reference's
+    from its own (a rung) or from the committed record (``record``: :func:`committed_checks`)."""
+    by_name = {r["name"]: r for r in ladder["rungs"]}
+    quantities = [row["quantity"] for row in contrast["rows"]]
+
+    def measured(rung: dict) -> tuple[list, list[dict]]:
+        base = rung_cases_root(results, ladder, rung)
+        cases = {str(p.parent.parent.relative_to(base)): p.parent.parent
+                 for p in sorted(base.glob("**/analysis/scalars.json"))}
+        return _headline_checks(ladder, base, cases, quantities)
+
+    if contrast["rung"] not in by_name or contrast["reference"] not in {*by_name, RECORD}:
+        return [], [], "waits for its rungs (not rungs of this ladder)"
+    rung_side, cases = measured(by_name[contrast["rung"]])
+    ref_side = (committed_checks(ladder, quantities)[0] if contrast["reference"] == RECORD
+                else measured(by_name[contrast["reference"]])[0])
+    waits = [name for name, side in ((contrast["rung"], rung_side), (reference_label(contrast), ref_side))
+             if not side]
+    if waits:
+        return [], cases, "waits for " + ", ".join(waits)
+    checks, missing = contrast_checks(contrast, ref_side, rung_side)
+    if missing:
+        raise ConfigError(f"ladder {ladder['scene']}: contrast {contrast['name']!r}: rows {missing!r} match no one "
+                          f"check of both sides: allowed the start of one check's quantity of the scene's validation")
+    return checks, cases, ""
+
+
+def committed_checks(ladder: dict, headlines: list | None = None) -> tuple[list, list[dict]]:
     """The base rung read from the committed record (``validation/<scene>/summary.json``) when its runs
-    are not at hand: the headline checks of the cases matching the ladder's sweep (each key with one value,
-    named ``key~value`` in the case), or sweep-wide ones."""
+    are not at hand: the headline checks (``headlines``, else the ladder's) of the cases matching the ladder's
+    sweep (each key with one value, named ``key~value`` in the case), or sweep-wide ones, with their
+    replicates' scatter."""
+    headlines = ladder["headlines"] if headlines is None else headlines
     from granflow.validation import Check
 
     path = ROOT / "validation" / ladder["scene"] / "summary.json"
     if not path.exists():
         return [], []
     summary = json.loads(path.read_text())
-    values = [v[0] for v in (ladder.get("sweep") or {}).values() if len(v) == 1]
+    sweep = ladder.get("sweep") or {}
+    values = [v[0] for v in sweep.values() if len(v) == 1]
+    # the case the ladder's sweep point names, where every key has one value (its label may carry other units)
+    named = registry.get(ladder["scene"]).case_dir({k: v[0] for k, v in sweep.items()}) \
+        if sweep and all(len(v) == 1 for v in sweep.values()) else None
 
     def matches(case: str) -> bool:
         parts = [p.split("~", 1)[1] for p in case.split("/") if "~" in p]
-        return all(any(_same(p, v) for p in parts) for v in values)
+        return case == named or all(any(_same(p, v) for p in parts) for v in values)
+
+    def open_range(rng) -> tuple | None:   # JSON keeps an open end (±inf) as null
+        return None if not rng else (-math.inf if rng[0] is None else rng[0], math.inf if rng[1] is None else rng[1])
 
     keep, dirs = [], set()
     for c in summary["checks"]:
-        if any(c["quantity"].startswith(h) for h in ladder["headlines"]) and (c["case"] == "sweep" or matches(c["case"])):
+        if any(c["quantity"].startswith(h) for h in headlines) and (c["case"] == "sweep" or matches(c["case"])):
             nan = float("nan")
             keep.append(Check(c["quantity"], c["paper"], c["source"], nan if c["ours"] is None else c["ours"],
                               nan if c.get("error") is None else c["error"], case=c["case"],
-                              paper_range=tuple(c["paper_range"]) if c.get("paper_range") else None,
+                              paper_range=open_range(c.get("paper_range")),
                               paper_error=c.get("paper_error") or 0.0, note=c.get("note", ""),
-                              syst=nan if c.get("syst") is None else c["syst"], variants=c.get("variants", "")))
+                              syst=nan if c.get("syst") is None else c["syst"], variants=c.get("variants", ""),
+                              kind=c.get("kind") or "comparison",
+                              run_to_run=nan if c.get("run_to_run") is None else c["run_to_run"],
+                              n_replicates=int(c.get("n_replicates") or 1)))
             dirs.add(c["case"])
     cases = [dict(c, cpu_hours=float("nan") if c.get("cpu_hours") is None else c["cpu_hours"])
              for c in summary["cases"] if c["dir"] in dirs or "sweep" in dirs]
@@ -294,6 +341,10 @@ def case_label(case: dict) -> str:
     return ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}" for k, v in case["case"].items())
 
 
+#: how a contrast row's state starts (not "run": its rows are no rung's cost, so no picture or plan reads them)
+CONTRAST = "contrast:"
+#: the states of measured rows: a rung's or pool's (``run``) and a contrast's
+MEASURED = ("run", CONTRAST)
 #: the state of a row kept from the committed ladder.csv (:func:`committed_rows`), with the file's commit
 KEPT = "run (kept from the committed ladder.csv{when}; its runs are not at hand)"
 
@@ -321,15 +372,22 @@ def committed_rows(ladder: dict, rung: dict, path: Path | None = None) -> list[d
         return []
     df = pd.read_csv(path)
     same = df[(df["rung"] == rung["name"]) & (df["knob"] == rung["knob"])]
-    mine = same[same["state"].astype(str).str.startswith("run") & same["quantity"].notna()]
+    mine = same[same["state"].astype(str).str.startswith(MEASURED) & same["quantity"].notna()]
     if mine.empty:  # a rung that ran and measured nothing keeps why, said to be kept
         ran = same[same["state"].astype(str).str.startswith("ran, not measured")]
         when = _last_commit(path)
         return [{k: v for k, v in r.items() if k != "from_paper" and not (isinstance(v, float) and math.isnan(v))}
                 | ({} if "(kept from" in r["state"] else {"state": f"{r['state']} (kept from the committed ladder.csv{when})"})
                 for r in ran.to_dict("records")]
-    kept = mine["state"].astype(str).str.startswith(KEPT.split("{")[0])   # kept before: it names where from
-    mine = rejudge(mine.assign(state=mine["state"].where(kept, KEPT.format(when=_last_commit(path)))), ladder)
+    when = _last_commit(path)
+
+    def kept_state(state: str) -> str:   # a row kept before names where from; a contrast's keeps its words
+        if state.startswith(KEPT.split("{")[0]) or "(kept from" in state:
+            return state
+        return f"{state} (kept from the committed ladder.csv{when})" if state.startswith(CONTRAST) else \
+            KEPT.format(when=when)
+
+    mine = rejudge(mine.assign(state=mine["state"].astype(str).map(kept_state)), ladder)
     return [{k: v for k, v in r.items() if k != "from_paper"} for r in mine.to_dict("records")]
 
 
@@ -376,6 +434,17 @@ def table(ladder: dict, results: Path, keep_committed: bool = False) -> pd.DataF
         else:
             cpu = sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"]))
             rows += _rows(pool, f"run (pooled: {' + '.join(pool['rungs'])})", checks, cases, cpu)
+    for contrast in ladder.get("contrasts") or []:
+        checks, cases, waits = contrast_table_checks(ladder, contrast, results)
+        if not checks and keep_committed and (kept := committed_rows(ladder, contrast)):
+            rows += kept
+        elif not checks:
+            rows.append({"rung": contrast["name"], "knob": contrast["knob"], "state": f"not run ({waits})",
+                         "cpu_hours": np.nan})
+        else:
+            cpu = sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"]))
+            rows += _rows(contrast, f"{CONTRAST} {contrast['rung']} against {reference_label(contrast)}", checks,
+                          cases, cpu)
     for rung in ladder.get("planned", []):
         p = plan(ladder, rung, results, priced_only=True)
         rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "planned (cost model, not run)",
@@ -442,12 +511,13 @@ def markdown(df: pd.DataFrame, ladder: dict) -> str:
             "measured (planned rungs: the cost model's upper bound).\n\n" + order_line(ladder) +
             "| rung | knob | quantity | ours ± stat ± syst | paper | verdict | CPU-h |\n|---|---|---|---|---|---|---|\n")
     for _, r in df.iterrows():
-        if not str(r["state"]).startswith("run"):
+        if not str(r["state"]).startswith(MEASURED):
             cpu = f"{r['cpu_hours']:.3g}" if math.isfinite(r["cpu_hours"]) else "–"
             text += f"| {r['rung']} | {r['knob']} | – | {r['state']} | | | {cpu} |\n"
             continue
         ours = format_with_errors(r["ours"], r["stat"], r["syst"])
-        where = "" if r["state"] == "run" else f" ({r['state'][5:-1]})"
+        state = str(r["state"])
+        where = "" if state == "run" else f" ({state})" if state.startswith(CONTRAST) else f" ({state[5:-1]})"
         text += (f"| {r['rung']} | {r['knob']}{where} | {r['quantity']} | {ours} | {r['paper']} | "
                  f"{r['verdict']} | {r['cpu_hours']:.2f} |\n")
     return text + "\n" + scatter_lines(df, ladder) + series_lines(df, ladder)
@@ -577,7 +647,7 @@ def rejudge(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
     kinds = registry.get(ladder["scene"]).check_kinds
     out = df.copy()
     for i, r in out.iterrows():
-        if not str(r["state"]).startswith("run"):
+        if not str(r["state"]).startswith(MEASURED):
             continue
         # a range may be open on one side ("> 0": hi = inf); a row of before the paper_error column has none
         bounds = pd.to_numeric(pd.Series([r["paper_lo"], r["paper_hi"]]), errors="coerce")

@@ -185,7 +185,8 @@ def test_the_committed_ladders_carry_their_files_order():
         ladder = ladder_tool.load_ladder(path)
         record = ROOT / "validation" / ladder["scene"]
         df = pd.read_csv(record / "ladder.csv")
-        order = {r["name"]: r["from_paper"] for r in ladder["rungs"] + ladder.get("planned", []) + ladder.get("pools", [])}
+        order = {r["name"]: r["from_paper"] for r in ladder["rungs"] + ladder.get("planned", []) + ladder.get("pools", [])
+                 + ladder.get("contrasts", [])}
         assert list(df.columns[:3]) == ["rung", "knob", "from_paper"]
         assert set(df["rung"]) == set(order), path
         assert all(df["from_paper"] == df["rung"].map(order)), path
@@ -244,7 +245,7 @@ def test_a_rung_without_runs_may_keep_its_committed_rows(tmp_path):
     assert len(kept) == 1 and kept[0]["ours"] == row["ours"] and kept[0]["cpu_hours"] == row["cpu_hours"]
     assert kept[0]["state"].startswith("run (kept from the committed ladder.csv")
     assert ladders.committed_rows(ladder, dict(rung, knob="depth B 5 → 11 d_p")) == []
-    ladder["rungs"], ladder["planned"] = [rung], []
+    ladder["rungs"], ladder["planned"], ladder["contrasts"] = [rung], [], []
     assert list(ladder_tool.table(ladder, tmp_path)["state"]) == ["not run"]          # off unless asked
     df = ladder_tool.table(ladder, tmp_path, keep_committed=True)
     assert list(df["rung"]) == ["B10"] and df["state"].iloc[0] == kept[0]["state"]

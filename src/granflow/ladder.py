@@ -271,10 +271,17 @@ def contrast_table_checks(ladder: dict, contrast: dict, results: Path) -> tuple[
              if not side]
     if waits:
         return [], cases, "waits for " + ", ".join(waits)
+    unknown = contrast_checks(contrast, ref_side, ref_side)[1]
+    if unknown:
+        raise ConfigError(f"ladder {ladder['scene']}: contrast {contrast['name']!r}: rows {unknown!r} match no one "
+                          f"check of {reference_label(contrast)}: allowed the start of one check's quantity of the "
+                          f"scene's validation")
     checks, missing = contrast_checks(contrast, ref_side, rung_side)
-    if missing:
-        raise ConfigError(f"ladder {ladder['scene']}: contrast {contrast['name']!r}: rows {missing!r} match no one "
-                          f"check of both sides: allowed the start of one check's quantity of the scene's validation")
+    if missing or not all(math.isfinite(c.ours) for c in checks):
+        ended = "; ".join(f"{c['status']}: {str(c['reason']).split(': ERROR')[0]}" for c in cases
+                          if c.get("status") not in ("steady", None))
+        return [], cases, f"{contrast['rung']} measured no {', '.join(missing) or 'value'}" + \
+            (f" ({ended})" if ended else "")
     return checks, cases, ""
 
 
@@ -439,8 +446,8 @@ def table(ladder: dict, results: Path, keep_committed: bool = False) -> pd.DataF
         if not checks and keep_committed and (kept := committed_rows(ladder, contrast)):
             rows += kept
         elif not checks:
-            rows.append({"rung": contrast["name"], "knob": contrast["knob"], "state": f"not run ({waits})",
-                         "cpu_hours": np.nan})
+            rows.append({"rung": contrast["name"], "knob": contrast["knob"], "cpu_hours": np.nan,
+                         "state": f"ran, not measured: {waits}" if cases else f"not run ({waits})"})
         else:
             cpu = sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"]))
             rows += _rows(contrast, f"{CONTRAST} {contrast['rung']} against {reference_label(contrast)}", checks,

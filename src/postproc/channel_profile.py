@@ -1,9 +1,11 @@
 """Channel profiles across x in Heaviside bins (Debnath et al. 2022): a :class:`~postproc.fields.FieldAccumulator`
-on the channel's bins, over a sequence of frames."""
+on the channel's bins, over a sequence of frames, with the shear rate :math:`du_y/dx` across the bins and its
+error (:func:`shear_rate`)."""
 from __future__ import annotations
 
 from typing import Iterable
 
+import numpy as np
 import pandas as pd
 
 from .coordinates import XCoordinates
@@ -53,4 +55,39 @@ def profile_from_frames(
     accumulator.prepare()
     for frame in frames:
         accumulator.accumulate(frame)
-    return accumulator.conclude()
+    table = accumulator.conclude()
+    if "u_y" not in table:
+        return table
+    x = table["x"].to_numpy(float)
+    values, se = accumulator.errors_of(lambda fields: {SHEAR: shear_rate(x, fields["u_y"])}, [SHEAR])
+    fields = [c for c in table.columns if c not in ("x", "x_lo", "x_hi") and not c.endswith("_se")]
+    at = len(("x", "x_lo", "x_hi")) + len(fields)   # a field column among the fields, its error among the errors
+    table.insert(at, SHEAR, values[SHEAR])
+    table[f"{SHEAR}_se"] = se[SHEAR]
+    return table
+
+
+#: the shear-rate column of a channel profile
+SHEAR = "du_y_dx"
+
+
+def shear_rate(x: np.ndarray, u_y: np.ndarray) -> np.ndarray:
+    """:math:`du_y/dx` at the bin centres ``x`` (:func:`numpy.gradient`: second-order central differences on the
+    non-uniform bins, first order at the walls). Its error comes from the same difference of each block's and
+    sub-block's profile (:meth:`~postproc.fields.FieldAccumulator.errors_of`): a change of speed of the whole
+    channel moves every bin alike and no gradient.
+
+    Parameters
+    ----------
+    x : ndarray
+        Bin centres across the channel, length units.
+    u_y : ndarray
+        The bins' velocity along the flow.
+
+    Returns
+    -------
+    ndarray
+        :math:`du_y/dx` per bin (NaN with fewer than two bins).
+    """
+    u_y = np.asarray(u_y, float)
+    return np.gradient(u_y, np.asarray(x, float)) if len(u_y) >= 2 else np.full(len(u_y), np.nan)

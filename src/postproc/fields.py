@@ -106,7 +106,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import replace
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -335,6 +335,38 @@ class FieldAccumulator(ConcludedResult):
         self._block_errors = pd.DataFrame({**nodes, **{f"{c}_se": se_block[c] for c in values}})
         self._result = pd.DataFrame({**nodes, **values, **errors})
         return self._result
+
+    def errors_of(self, fn: Callable[[dict], dict], names: Sequence[str]) -> tuple[dict, dict]:
+        """Quantities derived from the averaged fields across nodes (a gradient, a difference of two nodes), with
+        correlation-aware standard errors as the fields' own: ``fn`` is applied to the whole average and to each
+        block and sub-block, so what moves every node at once (a whole profile's change of speed) leaves a
+        gradient's error alone, where propagating the nodes' errors as independent would count it.
+
+        Parameters
+        ----------
+        fn : callable
+            The fields of one average (``{column: (n_nodes,) array}``, the result's columns) to
+            ``{name: array}``.
+        names : sequence of str
+            The keys of ``fn``'s output to give errors for.
+
+        Returns
+        -------
+        values, se : dict of str to ndarray
+
+        Raises
+        ------
+        RuntimeError
+            Before :meth:`conclude`.
+        """
+        if self._result is None:
+            raise RuntimeError("FieldAccumulator.errors_of() called before conclude()")
+
+        def derived(stacked: np.ndarray) -> dict:
+            return fn(self._derive(stacked))
+
+        se, _ = time_average_errors(self._sums, derived, list(names), self.n_blocks)
+        return derived(self._sums.total_mean()), se
 
     @property
     def block_errors(self) -> pd.DataFrame:

@@ -373,3 +373,27 @@ def test_figures_survive_missing_optional_fields(tmp_path, check_png):
     for name in ("fig_stress_profiles", "fig_phi_shear_temperature", "fig_rheology"):
         getattr(plots, name)([case], tmp_path / f"{name}.png")
         check_png(tmp_path / f"{name}.png")
+
+
+def test_a_plugs_frozen_scatter_is_no_shear():
+    # a plug that samples one configuration leaves a gradient in each bin that no time average removes: the
+    # central 30 %'s largest |shear rate| is the zero the plug edge is read against, not the time average's error
+    W = 100.0
+    df = make_profile(W)
+    rng = np.random.default_rng(7)
+    x = df["x"].to_numpy()
+    quenched = 2e-3 * rng.standard_normal(len(x))               # 100 × SE_U, fixed over the window
+    df["u_y"] = df["u_y"] + quenched
+    f = ch.fold_profile(df, W)
+    r = ch.rheology(f)
+    z = ch.flow_zones(f, r)
+    gd = np.abs(r["gamma_dot"].to_numpy())
+    xf = f["x"].to_numpy()
+    floor = 3 * np.sqrt(np.mean(gd[xf >= 0.35 * W] ** 2))
+    inside = xf >= z.x_dense_plug
+    assert np.all(gd[inside] <= np.maximum(2 * r["gamma_dot_se"].to_numpy()[inside], floor))
+    # the smooth profile's shear 3 du/delta e^{-3x/delta} reaches that floor within a few bins of the edge
+    x_floor = DELTA / 3 * np.log(3 * (U_MAX - U_SLIP) / (DELTA * floor))
+    assert z.x_dense_plug < 0.35 * W and abs(z.x_dense_plug - x_floor) <= 3.0
+    # without the floor (the time average's error alone) the scatter would leave no plug at all
+    assert np.any(gd[xf >= 0.35 * W] > 2 * r["gamma_dot_se"].to_numpy()[xf >= 0.35 * W])

@@ -348,3 +348,31 @@ def test_frame_fluctuations_leave_out_a_change_of_the_whole_bins_speed():
                     still_f[[f"sigmak_{c}" for c in TENSOR]].to_numpy(), rtol=1e-8, atol=1e-12)
     with pytest.raises(ValueError, match="fluctuation"):
         FieldAccumulator(HeavisideBins(channel_bin_edges((0.0, W))), XCoordinates(walls=(0.0, W)), fluctuation="bin")
+
+
+def test_a_whole_channels_change_of_speed_leaves_the_shear_rates_error_alone():
+    """The channel profile's du_y/dx (postproc.channel_profile.shear_rate) takes its error from each block's
+    own gradient (FieldAccumulator.errors_of): particles in a fixed linear shear whose whole channel changes
+    speed from frame to frame give the shear exactly, with an error far below the bins' errors propagated as
+    independent (which count the common change of speed twice per gradient)."""
+    from postproc.channel_profile import SHEAR, shear_rate
+
+    rng = np.random.default_rng(13)
+    W, n, gamma = 12.0, 800, 0.3
+    base = make_frame(rng, n, W, velocity=np.zeros(3), omega=np.zeros(3))
+    x = base.position[:, 0]
+    frames = []
+    for k in range(64):
+        v = np.zeros((n, 3))
+        v[:, 1] = gamma * x + rng.normal(0.0, 2.0) + rng.normal(0.0, 0.01, n)   # a common jump of ~2 per frame
+        frames.append(ParticleFrame(k, base.box, base.position, v, base.mass, base.radius, np.zeros((n, 3))))
+    table = profile_from_frames(frames, W)
+    # the bins' mass-weighted mean x differs from their centres: the exact gradient of the binned u_y
+    edges = channel_bin_edges((0.0, W))
+    b = np.searchsorted(edges, x, side="right") - 1
+    x_mean = np.bincount(b, base.mass * x) / np.bincount(b, base.mass)
+    assert_allclose(table[SHEAR], shear_rate(table["x"].to_numpy(), gamma * x_mean), atol=0.01)
+    se = table[f"{SHEAR}_se"].to_numpy()
+    propagated = np.sqrt(2) * table["u_y_se"].to_numpy() / 2          # two bins 2 apart, errors independent
+    assert np.all(se[1:-1] < 0.05 * propagated[1:-1])
+    assert list(table.columns).index(SHEAR) < list(table.columns).index("n_se")   # a field among the fields

@@ -125,7 +125,7 @@ def mirror_parity(name: str) -> int:
     int
         ``-1`` for odd fields, ``+1`` otherwise (unknown columns count as even).
     """
-    if name in ("u_x", "Omega_y", "Omega_z") or _ODD_COMPONENT.match(name):
+    if name in ("u_x", "Omega_y", "Omega_z", "du_y_dx") or _ODD_COMPONENT.match(name):
         return -1
     return 1
 

@@ -30,6 +30,27 @@ def _mirror_extended_gradient_operator(x: np.ndarray, W: float) -> np.ndarray:
     return d
 
 
+def shear_rate_and_error(folded: pd.DataFrame, W: float) -> tuple[np.ndarray, np.ndarray]:
+    """:math:`\\dot\\gamma = du/dx` (``u = -u_y``, the downward speed) per folded bin and its error.
+
+    From the profile's own shear-rate column where it has one (``du_y_dx``, :func:`postproc.channel_profile.
+    shear_rate`: each block's and sub-block's profile differenced, so its error holds no change of speed of the
+    whole channel, which moves every bin alike); else the folded speed differenced
+    (:func:`_mirror_extended_gradient_operator`) with the bins' errors propagated as independent, which counts
+    that common change of speed into every gradient (an upper bound)."""
+    if "du_y_dx" in folded:
+        gd, gd_se = field_and_error(folded, "du_y_dx")
+        return -gd, gd_se
+    u, u_se = downward_speed(folded)
+    d = _mirror_extended_gradient_operator(folded["x"].to_numpy(dtype=float), W)
+    touches = np.abs(d) > 0  # bins entering each gradient
+    gd = d @ np.nan_to_num(u, nan=0.0)
+    gd[touches @ ~np.isfinite(u)] = np.nan
+    gd_se = np.sqrt((d**2) @ np.nan_to_num(u_se, nan=0.0) ** 2)
+    gd_se[touches @ ~np.isfinite(u_se)] = np.nan
+    return gd, gd_se
+
+
 def rheology(folded: pd.DataFrame, W: float | None = None, rho_p: float = 1.0,
              params: MuIParameters = JOP2015) -> pd.DataFrame:
     """Local rheology of the folded profile (paper, figures 8, 9, 11).
@@ -73,13 +94,7 @@ def rheology(folded: pd.DataFrame, W: float | None = None, rho_p: float = 1.0,
     """
     W = channel_width(folded, W)
     x = folded["x"].to_numpy(dtype=float)
-    u, u_se = downward_speed(folded)
-    d = _mirror_extended_gradient_operator(x, W)
-    touches = np.abs(d) > 0  # bins entering each gradient
-    gd = d @ np.nan_to_num(u, nan=0.0)
-    gd[touches @ ~np.isfinite(u)] = np.nan
-    gd_se = np.sqrt((d**2) @ np.nan_to_num(u_se, nan=0.0) ** 2)
-    gd_se[touches @ ~np.isfinite(u_se)] = np.nan
+    gd, gd_se = shear_rate_and_error(folded, W)
 
     sxx, sxx_se = field_and_error(folded, "sigma_xx")
     sxy, sxy_se = field_and_error(folded, "sigma_xy")
@@ -102,8 +117,8 @@ def rheology(folded: pd.DataFrame, W: float | None = None, rho_p: float = 1.0,
         unavailable.update(mu="no sigma_xy column", shear_production="no sigma_xy column")
     if "Omega_z" not in folded:
         unavailable["Omega_z_over_omega_z"] = "no Omega_z column"
-    if "u_y_se" not in folded:
-        unavailable["gamma_dot_se"] = "no u_y_se column"
+    if "u_y_se" not in folded and "du_y_dx_se" not in folded:
+        unavailable["gamma_dot_se"] = "no u_y_se or du_y_dx_se column"
     out = pd.DataFrame({
         "x": x, "gamma_dot": gd, "gamma_dot_se": gd_se, "mu": mu, "mu_se": mu_se,
         "I": I, "I_se": I_se, "mu_B3": params.mu(I), "phi_B4": params.phi(I),
@@ -127,9 +142,9 @@ class FlowZones:
         Where :math:`\\phi` crosses :math:`\\phi_{ad}`; NaN when there is no loose
         zone (the crossing lies inside the wall layer, or never happens).
     x_dense_plug : float
-        Start of the plug: from here to the centre the shear rate is
-        indistinguishable from zero, :math:`|\\dot\\gamma| \\le 2\\,\\mathrm{se}`; NaN if
-        there is no such region.
+        Start of the plug: from here to the centre the shear rate is zero to within
+        the measurement's accuracy, :math:`|\\dot\\gamma| \\le \\max(2\\,\\mathrm{se}, s_c)`
+        (:func:`flow_zones`); NaN if there is no such region.
     x_plug_phi063 : float
         Alternative plug edge: where :math:`\\phi` first reaches 0.63.
     labels : ndarray of str
@@ -160,7 +175,7 @@ def _first_crossing(x: np.ndarray, y: np.ndarray, level: float) -> float:
 
 def flow_zones(folded: pd.DataFrame, rheo: pd.DataFrame, phi_ad: float = PHI_AD,
                wall_layer: float = WALL_LAYER, phi_plug: float = PHI_PLUG,
-               n_se: float = 2.0) -> FlowZones:
+               n_se: float = 2.0, floor_from: float = 0.35) -> FlowZones:
     """Zones of the channel flow by the paper's criteria (section 3.2).
 
     * wall shearing layer: within ``wall_layer`` (2 :math:`d_p`) of the wall;
@@ -168,8 +183,12 @@ def flow_zones(folded: pd.DataFrame, rheo: pd.DataFrame, phi_ad: float = PHI_AD,
       from the centre towards the wall (the last bin with
       :math:`\\phi \\ge \\phi_{ad}` and its outer neighbour, interpolated);
     * plug / dense boundary: the inner edge of the outermost bin from which,
-      all the way to the centre, :math:`|\\dot\\gamma| \\le n_{se}\\,\\mathrm{se}(\\dot\\gamma)`
-      (:math:`n_{se} = 2`);
+      all the way to the centre, :math:`|\\dot\\gamma| \\le \\max(n_{se}\\,\\mathrm{se}(\\dot\\gamma), s_c)`
+      (:math:`n_{se} = 2`), "zero to within the simulation accuracy" (§3.2): ``se`` the time
+      average's error, :math:`s_c` three times the rms of :math:`\\dot\\gamma` over the bins of the channel's
+      central 30 % (:math:`x \\ge` ``floor_from`` :math:`W`, 0.35 W): the scatter a plug's frozen
+      configuration leaves in a gradient over the whole window, which ``se`` (what changes in
+      time) does not hold;
     * alternative plug edge: first :math:`x` where :math:`\\phi` reaches 0.63.
 
     Labels use bin centres: ``wall`` if :math:`x < x_{wall}`, else ``plug`` beyond
@@ -213,7 +232,12 @@ def flow_zones(folded: pd.DataFrame, rheo: pd.DataFrame, phi_ad: float = PHI_AD,
     else:
         # <= so that the centre bin, whose gradient is exactly zero by symmetry
         # (with zero error), counts as unsheared
-        zero = np.abs(gd) <= n_se * gd_se
+        # 3 × the central 30 %'s rms shear rate: what a frozen configuration leaves in a gradient (see above);
+        # a bin of that scatter passes 3 rms once in ~400
+        W = channel_width(folded, None)
+        central = (x >= floor_from * W) & np.isfinite(gd)
+        floor = 3.0 * float(np.sqrt(np.mean(gd[central] ** 2))) if central.sum() >= 3 else 0.0
+        zero = np.abs(gd) <= np.maximum(n_se * gd_se, floor)
         if zero[-1]:
             k = len(zero) - 1
             while k > 0 and zero[k - 1]:

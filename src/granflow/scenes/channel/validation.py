@@ -42,6 +42,7 @@ from .measurement import central_errors, headline_variants
 from .kinetic_checks import kinetic_checks
 from .more_checks import more_checks
 from .width_checks import width_checks
+from .zone_checks import zone_checks
 
 NAN = float("nan")
 #: the paper's u_max/u_slip, section 3.1 and figure 5(c) ("1.37-1.40 for all W and phi-bar")
@@ -454,6 +455,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
         if (case.path / "analysis" / "blocks.csv").exists():
             blocks.append(pd.read_csv(case.path / "analysis" / "blocks.csv").assign(case=case.name))
     checks += more_checks(loaded) + kinetic_checks(loaded)  # the paper's other results one W and two φ̄ can test
+    checks += zone_checks(loaded)  # the shear rate's curvature in the dense and loose zones
     checks += width_checks(loaded)  # and those two W at one φ̄ can
     profiles = {}
     if velocity:

@@ -1,0 +1,42 @@
+"""The shear rate's shape in the channel's zones (granflow.scenes.channel.zone_checks), on profiles with a known
+answer."""
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from granflow.scenes.channel.zone_checks import MIN_BINS, log_shear_curvature, shear_orders
+
+
+def analysis(x, gd, rel_se=0.01):
+    return SimpleNamespace(folded=pd.DataFrame({"x": x}),
+                           rheo=pd.DataFrame({"gamma_dot": gd, "gamma_dot_se": rel_se * np.abs(gd)}))
+
+
+@pytest.mark.parametrize("c2", [-0.05, 0.0, 0.08])
+def test_the_curvature_of_ln_shear_rate_is_read_back(c2):
+    x = np.arange(0.75, 30.0, 1.0)
+    gd = np.exp(1.0 - 0.4 * x + c2 * x**2 / 2)              # ln γ̇ = 1 - 0.4 x + c2 x²/2: curvature c2
+    fit = log_shear_curvature(analysis(x, gd), 4.0, 12.0)
+    assert math.isclose(fit["curvature"], c2, abs_tol=1e-9) and fit["n"] == 8
+    assert fit["se"] > 0
+
+
+def test_a_zone_of_too_few_bins_gives_no_curvature():
+    x = np.arange(0.75, 30.0, 1.0)
+    fit = log_shear_curvature(analysis(x, np.exp(-x)), 2.0, 2.0 + MIN_BINS - 1)
+    assert math.isnan(fit["curvature"]) and fit["n"] == MIN_BINS - 1
+
+
+def test_orders_below_the_wall_are_read_at_the_last_bin_before_the_edge():
+    x = np.array([0.75, 2.0, 3.0, 4.0, 5.0, 6.0])
+    gd = np.array([10.0, 1.0, 0.1, 0.01, 0.001, 0.0])
+    r = shear_orders(analysis(x, gd), x_edge=4.5)           # the last bin before 4.5 is x = 4: 10 / 0.01
+    assert math.isclose(r["orders"], 3.0) and r["x"] == 4.0
+    assert math.isclose(shear_orders(analysis(x, gd), 4.5, +1)["orders"], 4.0)
+    assert math.isclose(r["se"], math.hypot(0.01, 0.01) / math.log(10))
+    assert math.isnan(shear_orders(analysis(x, gd), 6.5)["orders"])   # a zero shear rate has no order

@@ -40,3 +40,27 @@ def test_orders_below_the_wall_are_read_at_the_last_bin_before_the_edge():
     assert math.isclose(shear_orders(analysis(x, gd), 4.5, +1)["orders"], 4.0)
     assert math.isclose(r["se"], math.hypot(0.01, 0.01) / math.log(10))
     assert math.isnan(shear_orders(analysis(x, gd), 6.5)["orders"])   # a zero shear rate has no order
+
+
+def mu_analysis(x, I, mu):
+    return SimpleNamespace(folded=pd.DataFrame({"x": x}),
+                           rheo=pd.DataFrame({"I": I, "I_se": 0.01 * I, "mu": mu, "mu_se": np.full(len(x), 0.001)}))
+
+
+def test_mu_linear_in_log_i_has_its_slope_and_no_change_of_slope():
+    from granflow.scenes.channel.zone_checks import mu_log_i
+
+    x = np.arange(1.0, 12.0)
+    L = -1.0 - 0.25 * x                                       # log10 I from -1.25 to -3.75
+    fit = mu_log_i(mu_analysis(x, 10**L, 0.35 + 0.04 * L), 0.0, 20.0)
+    assert math.isclose(fit["slope"], 0.04, rel_tol=1e-9) and abs(fit["kappa"]) < 1e-9
+
+
+def test_mu_flattening_at_low_i_as_b3_does_has_a_positive_change_of_slope():
+    from granflow.scenes.channel.zone_checks import mu_log_i
+
+    x = np.arange(1.0, 12.0)
+    I = 10 ** (-1.0 - 0.25 * x)
+    mu_s, mu_2, I_0 = 0.25, 0.6, 0.3                           # B3: μ = μ_s + (μ_2 − μ_s)/(1 + I_0/I)
+    fit = mu_log_i(mu_analysis(x, I, mu_s + (mu_2 - mu_s) / (1 + I_0 / I)), 0.0, 20.0)
+    assert fit["slope"] > 0 and fit["kappa"] > 1.0            # the slope dies away toward the lowest I

@@ -3,6 +3,11 @@
 * "in the dense shearing zone, the error bars are smaller than the mean values, and the profiles are continuous,
   even when the shear rate is 4–5 orders of magnitude smaller than that at the wall" (§3.2; conclusion (vii):
   "3–4 orders"): log10 of the wall bin's shear rate over that of the dense zone's last bin before φ reaches 0.63;
+* "in the dense shearing zone, the friction coefficient decreases approximately linearly in log I down to the
+  lowest I, where (B3) tends to μ_s" (fig. 11a; conclusion x): μ against log10 I over the dense zone's bins, the
+  straight line's slope (paper > 0: μ falls as I falls) and, from a weighted quadratic, the relative change κ of
+  the slope from the zone's highest to its lowest I, (b_hi − b_lo)/b̄ (paper 0: about linear; B3, flattening at
+  μ_s, gives about 2), a diagnostic while its error cannot tell the two apart;
 * "the shear rate profiles have negative curvature in the dense shearing zone, ... positive curvature in the loose
   shearing zone": the curvature of ln|du/dx| against x by a weighted quadratic over each zone's bins (the dense
   zone from φ = φ_ad to φ = 0.63, the loose from the wall layer's 2 d_p to φ_ad). The paper's fig. 8(b) spans
@@ -34,8 +39,12 @@ Q_ORDERS = "du/dx in the wall bin over at the dense zone's inner edge (φ = 0.63
 #: §3.2: the dense zone's shear rate "4–5 orders of magnitude smaller than that at the wall" at its lowest;
 #: conclusion (vii): "3–4 orders"
 SHEAR_ORDERS = (3.0, 5.0)
+Q_MU_SLOPE = "μ against log10 I in the dense shearing zone: slope dμ/dlog10 I"
+Q_MU_KAPPA = "μ against log10 I in the dense shearing zone: relative change κ of the slope across it"
+#: a bin whose I is known to worse than this relative error is left out of μ(log I) (its log I is not placed)
+MAX_I_REL_ERROR = 0.5
 #: every quantity this module writes (paper_results.yaml's compared_by names them)
-QUANTITIES = (Q_CURV_DENSE, Q_CURV_LOOSE, Q_ORDERS)
+QUANTITIES = (Q_CURV_DENSE, Q_CURV_LOOSE, Q_ORDERS, Q_MU_SLOPE, Q_MU_KAPPA)
 #: fewest bins a zone's quadratic is fitted over (one degree of freedom beyond the three terms)
 MIN_BINS = 4
 SOURCE_CURV = "§3.2, fig. 8(b)"
@@ -101,6 +110,50 @@ def _orders_check(case) -> Check:
                       f"own gradient; the paper's figure is at W = 100 d_p")
 
 
+def mu_log_i(a: ChannelAnalysis, x_from: float, x_to: float) -> dict:
+    """μ against L = log10 I over the folded bins with ``x_from`` ≤ x < ``x_to`` (I known to
+    :data:`MAX_I_REL_ERROR`): the weighted line's slope and its error; the weighted quadratic's relative change of
+    slope across the bins' range of L, κ = (b(L_max) − b(L_min))/b(L_mid), and its error (χ²-scaled); ``n``."""
+    x = a.folded["x"].to_numpy(float)
+    I, I_se = a.rheo["I"].to_numpy(float), a.rheo["I_se"].to_numpy(float)
+    mu, mu_se = a.rheo["mu"].to_numpy(float), a.rheo["mu_se"].to_numpy(float)
+    keep = ((x >= x_from) & (x < x_to) & np.isfinite(I) & (I > 0) & (I_se < MAX_I_REL_ERROR * I)
+            & np.isfinite(mu) & np.isfinite(mu_se) & (mu_se > 0))
+    nan = {"slope": NAN, "slope_se": NAN, "kappa": NAN, "kappa_se": NAN, "n": int(keep.sum()), "range": (NAN, NAN)}
+    if keep.sum() < MIN_BINS:
+        return nan
+    L = np.log10(I[keep])
+    line, line_cov, _, _ = weighted_polyfit(L, mu[keep], mu_se[keep], 1)
+    coef, cov, _, _ = weighted_polyfit(L, mu[keep], mu_se[keep], 2)
+    lo, hi, mid = float(L.min()), float(L.max()), float(0.5 * (L.min() + L.max()))
+    b_mid = coef[1] + 2 * coef[2] * mid
+    kappa = 2 * coef[2] * (hi - lo) / b_mid
+    # κ's error from the quadratic's covariance (the gradient of κ in (c0, c1, c2))
+    grad = np.array([0.0, -kappa / b_mid, 2 * (hi - lo) / b_mid - kappa * 2 * mid / b_mid])
+    return {"slope": float(line[1]), "slope_se": float(math.sqrt(line_cov[1, 1])), "kappa": float(kappa),
+            "kappa_se": float(math.sqrt(grad @ cov @ grad)), "n": int(keep.sum()), "range": (lo, hi)}
+
+
+def _mu_checks(case, x_from: float, x_to: float, variants: dict) -> list[Check]:
+    a = case.analysis
+    fit = mu_log_i(a, x_from, x_to)
+    var = {k: mu_log_i(a, lo, hi) for k, (lo, hi) in variants.items()}
+    where = (f"{fit['n']} folded bins of the dense zone ({x_from:.3g} ≤ x < {x_to:.3g} d_p; I known to "
+             f"{MAX_I_REL_ERROR:.0%}), log10 I from {fit['range'][0]:.2f} to {fit['range'][1]:.2f}; μ = |σ_xy|/σ_xx, "
+             f"I = d_p|du/dx|/√(σ_xx/ρ_p); {INDEPENDENT}, errors scaled by √(χ²/ν) when above 1")
+    out = []
+    for quantity, key, paper, rng, kind, why in (
+            (Q_MU_SLOPE, "slope", "> 0: μ falls about linearly in log I down to the dense zone's lowest I",
+             (0.0, math.inf), "comparison", ""),
+            (Q_MU_KAPPA, "kappa", "0: about linear in log I (B3, flattening at μ_s, gives about 2)", (0.0, 0.0),
+             "diagnostic", "; a diagnostic: its error (1-2.4 at W = 60-100 d_p) cannot tell linear (0) from B3's "
+                           "flattening (about 2), so no verdict")):
+        syst, text = systematic(fit[key], {k: v[key] for k, v in var.items()})
+        out.append(Check(quantity, paper, "§3.2, fig. 11(a); conclusion (x)", fit[key], fit[f"{key}_se"], case.name,
+                         rng, syst=syst, variants=text, note=where + why, kind=kind))
+    return out
+
+
 def case_zone_checks(case) -> list[Check]:
     """This module's rows for one :class:`.validation.ChannelCase` ([] without a steady analysis)."""
     a: ChannelAnalysis | None = case.analysis
@@ -113,6 +166,10 @@ def case_zone_checks(case) -> list[Check]:
         out.append(_curvature_check(case, Q_CURV_DENSE, dense_from, dense_to, "< 0", {
             "to the shear-rate plug edge": (dense_from, z.x_dense_plug),
             "one bin in from each edge": (dense_from + 1.0, dense_to - 1.0)}))
+    if math.isfinite(dense_from) and math.isfinite(dense_to):
+        out += _mu_checks(case, dense_from, dense_to, {
+            "to the shear-rate plug edge": (dense_from, z.x_dense_plug),
+            "one bin in from each edge": (dense_from + 1.0, dense_to - 1.0)})
     if math.isfinite(dense_from):
         out.append(_curvature_check(case, Q_CURV_LOOSE, loose_from, dense_from, "> 0", {
             "from the wall bin": (0.0, dense_from), "one bin past φ_ad": (loose_from, dense_from + 1.0)}))

@@ -209,11 +209,12 @@ def rung_case_dirs(ladder: dict, setup: dict) -> list[str]:
 
 
 def rung_checks(ladder: dict, rung: dict, results: Path) -> tuple[list, list[dict]]:
-    """(the headline checks of the rung's analysed cases, their case summaries)."""
+    """(the headline checks of the rung's analysed cases, their case summaries): the ladder's headlines and the
+    rung's own (``headlines:``, the rows only its setting gives, such as a zone that exists at one φ̄ only)."""
     base = rung_cases_root(results, ladder, rung)
     cases = {str(p.parent.parent.relative_to(base)): p.parent.parent
              for p in sorted(base.glob("**/analysis/scalars.json"))}
-    return _headline_checks(ladder, base, cases, ladder["headlines"])
+    return _headline_checks(ladder, base, cases, ladder["headlines"] + list(rung.get("headlines") or []))
 
 
 def _headline_checks(ladder: dict, base: Path, cases: dict, headlines: list) -> tuple[list, list[dict]]:

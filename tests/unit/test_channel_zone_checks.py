@@ -64,3 +64,15 @@ def test_mu_flattening_at_low_i_as_b3_does_has_a_positive_change_of_slope():
     mu_s, mu_2, I_0 = 0.25, 0.6, 0.3                           # B3: μ = μ_s + (μ_2 − μ_s)/(1 + I_0/I)
     fit = mu_log_i(mu_analysis(x, I, mu_s + (mu_2 - mu_s) / (1 + I_0 / I)), 0.0, 20.0)
     assert fit["slope"] > 0 and fit["kappa"] > 1.0            # the slope dies away toward the lowest I
+
+
+def test_a_rung_may_name_headlines_of_its_own():
+    """The ladder's rung phi062 records the loose zone's width (paper 0 at φ̄ = 0.62) beside the ladder's headlines."""
+    import granflow.ladder as lad
+    from granflow.scenes.channel.zone_checks import Q_LOOSE_WIDTH
+    from granflow.schema import PROJECT_ROOT
+
+    ladder = lad.load_ladder(PROJECT_ROOT / "config" / "ladders" / "channel.yaml")
+    rung = next(r for r in ladder["rungs"] if r["name"] == "phi062")
+    assert any(Q_LOOSE_WIDTH.startswith(h) for h in rung["headlines"])
+    assert lad.rung_sweep(ladder, rung)["phi_mean"] == [0.62]

@@ -8,6 +8,9 @@
   straight line's slope (paper > 0: μ falls as I falls) and, from a weighted quadratic, the relative change κ of
   the slope from the zone's highest to its lowest I, (b_hi − b_lo)/b̄ (paper 0: about linear; B3, flattening at
   μ_s, gives about 2), a diagnostic while its error cannot tell the two apart;
+* "for φ̄ = 0.62 there is no loose shearing zone" (§3.2; the blue lines of fig. 8 at φ̄ = 0.59-0.61): the loose
+  zone's width, from the wall layer's 2 d_p to where φ reaches φ_ad (0 where it reaches it inside the layer);
+  paper 0 from φ̄ = 0.62 on, > 0 below;
 * "the shear rate profiles have negative curvature in the dense shearing zone, ... positive curvature in the loose
   shearing zone": the curvature of ln|du/dx| against x by a weighted quadratic over each zone's bins (the dense
   zone from φ = φ_ad to φ = 0.63, the loose from the wall layer's 2 d_p to φ_ad). The paper's fig. 8(b) spans
@@ -43,8 +46,11 @@ Q_MU_SLOPE = "μ against log10 I in the dense shearing zone: slope dμ/dlog10 I"
 Q_MU_KAPPA = "μ against log10 I in the dense shearing zone: relative change κ of the slope across it"
 #: a bin whose I is known to worse than this relative error is left out of μ(log I) (its log I is not placed)
 MAX_I_REL_ERROR = 0.5
+Q_LOOSE_WIDTH = "loose shearing zone's width (φ < φ_ad beyond the 2 d_p wall layer), d_p"
+#: §3.2: "for φ̄ = 0.62 there is no loose shearing zone": from this φ̄ on the paper's width is 0, below it > 0
+PHI_NO_LOOSE = 0.62
 #: every quantity this module writes (paper_results.yaml's compared_by names them)
-QUANTITIES = (Q_CURV_DENSE, Q_CURV_LOOSE, Q_ORDERS, Q_MU_SLOPE, Q_MU_KAPPA)
+QUANTITIES = (Q_CURV_DENSE, Q_CURV_LOOSE, Q_ORDERS, Q_MU_SLOPE, Q_MU_KAPPA, Q_LOOSE_WIDTH)
 #: fewest bins a zone's quadratic is fitted over (one degree of freedom beyond the three terms)
 MIN_BINS = 4
 SOURCE_CURV = "§3.2, fig. 8(b)"
@@ -154,13 +160,29 @@ def _mu_checks(case, x_from: float, x_to: float, variants: dict) -> list[Check]:
     return out
 
 
+def _loose_width_check(case) -> Check:
+    a = case.analysis
+    z = a.zones
+    phi_mean = float(case.record["parameters"]["phi_mean"])
+    width = z.x_loose_dense - z.x_wall_layer if math.isfinite(z.x_loose_dense) else 0.0
+    bin_width = float(np.median(np.diff(a.folded["x"].to_numpy(float))))
+    none = phi_mean >= PHI_NO_LOOSE - 1e-9
+    paper = ("0: no loose shearing zone at φ̄ = 0.62" if none else
+             "> 0: a loose shearing zone between the wall layer and φ_ad (fig. 8, φ̄ = 0.59-0.61)")
+    return Check(Q_LOOSE_WIDTH, paper, "§3.2, fig. 8(a)", width, bin_width / math.sqrt(12.0), case.name,
+                 (0.0, 0.0) if none else (0.0, math.inf),
+                 note=f"φ̄ = {phi_mean:g}: φ reaches φ_ad = 0.587 at x = {z.x_loose_dense:.3g} d_p (interpolated between "
+                      f"the bins about it; {z.reason or 'after the wall layer'}); error: the crossing read to a bin "
+                      f"({bin_width:g} d_p/√12)")
+
+
 def case_zone_checks(case) -> list[Check]:
     """This module's rows for one :class:`.validation.ChannelCase` ([] without a steady analysis)."""
     a: ChannelAnalysis | None = case.analysis
     if a is None or case.why_not:
         return []
     z = a.zones
-    out = [_orders_check(case)] if math.isfinite(z.x_plug_phi063) else []
+    out = [_loose_width_check(case)] + ([_orders_check(case)] if math.isfinite(z.x_plug_phi063) else [])
     loose_from, dense_from, dense_to = WALL_LAYER, z.x_loose_dense, z.x_plug_phi063
     if math.isfinite(dense_from) and math.isfinite(dense_to):
         out.append(_curvature_check(case, Q_CURV_DENSE, dense_from, dense_to, "< 0", {

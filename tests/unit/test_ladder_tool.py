@@ -245,7 +245,7 @@ def test_a_rung_without_runs_may_keep_its_committed_rows(tmp_path):
     assert len(kept) == 1 and kept[0]["ours"] == row["ours"] and kept[0]["cpu_hours"] == row["cpu_hours"]
     assert kept[0]["state"].startswith("run (kept from the committed ladder.csv")
     assert ladders.committed_rows(ladder, dict(rung, knob="depth B 5 → 11 d_p")) == []
-    ladder["rungs"], ladder["planned"], ladder["contrasts"] = [rung], [], []
+    ladder["rungs"], ladder["planned"], ladder["contrasts"], ladder["pools"] = [rung], [], [], []
     assert list(ladder_tool.table(ladder, tmp_path)["state"]) == ["not run"]          # off unless asked
     df = ladder_tool.table(ladder, tmp_path, keep_committed=True)
     assert list(df["rung"]) == ["B10"] and df["state"].iloc[0] == kept[0]["state"]

@@ -59,6 +59,25 @@ def u_max_readings(a) -> dict[str, float]:
     return out
 
 
+def plug_edge_readings(a) -> dict[str, float]:
+    """φ in the plug with its edge read other ways: where the shear rate reaches the plug's frozen scatter with
+    that scatter taken from 0.25 W or 0.45 W on (:func:`~.analysis.rheology.flow_zones`; the record's 0.35 W), and
+    the paper's own edge, where φ reaches 0.63."""
+    from .analysis.rheology import flow_zones
+
+    x = a.folded["x"].to_numpy(float)
+    phi = a.folded["phi"].to_numpy(float)
+
+    def beyond(edge: float) -> float:
+        keep = (x >= edge) & np.isfinite(phi)
+        return float(phi[keep].mean()) if np.isfinite(edge) and keep.any() else float("nan")
+
+    out = {f"plug edge: scatter from {f:g} W": beyond(flow_zones(a.folded, a.rheo, floor_from=f).x_dense_plug)
+           for f in (0.25, 0.45)}
+    out["plug edge: φ = 0.63 (the paper's)"] = beyond(a.zones.x_plug_phi063)
+    return out
+
+
 def headline_variants(case_dir: Path, record: dict, central) -> dict[str, dict]:
     """Per key of :data:`HEADLINES`, ``{variant name: value or (value, se)}`` (module docstring).
 
@@ -76,6 +95,7 @@ def headline_variants(case_dir: Path, record: dict, central) -> dict[str, dict]:
             for key in HEADLINES:
                 out[key][label.format(width)] = _read(a, key)[0]
     out["ratio"].update(u_max_readings(central))
+    out["plug_phi"].update(plug_edge_readings(central))
     window = float(record["rung_knobs"]["t_average"])
     halves = {"first half": (0.0, 0.5 * window), "second half": (0.5 * window, window * (1.0 + 1e-9))}
     for name, span in halves.items():

@@ -238,9 +238,10 @@ def case_checks(case: ChannelCase, errors: dict, variants: dict | None = None) -
     if case.analysis is not None:
         phi_plug, phi_se = plug_phi(case.analysis)
         zones = case.analysis.zones
-        detail = (f"mean φ of the folded bins from the plug edge x = {zones.x_dense_plug:.3g} d_p (shear rate within "
-                  f"2 standard errors of zero up to the centre) to the centre; error: the mean of those bins' "
-                  f"errors of φ (correlation-aware field errors; bins taken as fully correlated, an upper bound)")
+        detail = (f"mean φ of the folded bins from the plug edge x = {zones.x_dense_plug:.3g} d_p (from there to the "
+                  f"centre |du/dx| ≤ max(2 se, 3 × the rms du/dx of x ≥ 0.35 W, the plug's frozen scatter)) to the "
+                  f"centre; error: the mean of those bins' errors of φ (correlation-aware field errors; bins taken as "
+                  f"fully correlated, an upper bound)")
         points = rheology_points(case.analysis)
         mu = b3_deviation(points, "dense")
         loose, dense = b4_deviation(points, "loose"), b4_deviation(points, "dense")

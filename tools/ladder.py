@@ -64,7 +64,7 @@ def cmd_order(args) -> int:
     ladder = load_ladder(args.ladder)
     out = ROOT / "validation" / ladder["scene"] if args.out is None else Path(args.out)
     df = with_from_paper(pd.read_csv(out / "ladder.csv"), ladder)
-    df.to_csv(out / "ladder.csv", index=False, float_format="%.6g")
+    df.to_csv(out / "ladder.csv", index=False, float_format="%.9g")
     text = (out / "ladder.md").read_text()
     head, sep, rest = text.partition("| rung | knob |")
     paragraphs = [p for p in head.split("\n\n") if p and not p.startswith("Order from the paper's setup")]
@@ -79,7 +79,7 @@ def cmd_rejudge(args) -> int:
     ladder = load_ladder(args.ladder)
     out = ROOT / "validation" / ladder["scene"] if args.out is None else Path(args.out)
     df = rejudge(pd.read_csv(out / "ladder.csv"), ladder)
-    df.to_csv(out / "ladder.csv", index=False, float_format="%.6g")
+    df.to_csv(out / "ladder.csv", index=False, float_format="%.9g")
     (out / "ladder.md").write_text(markdown(df, ladder))
     print(markdown(df, ladder), end="")
     return 0

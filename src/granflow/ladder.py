@@ -250,6 +250,30 @@ def pool_checks(ladder: dict, pool: dict, results: Path) -> tuple[list, list[dic
     return (*_headline_checks(ladder, base, cases, pool.get("headlines") or ladder["headlines"]), "")
 
 
+def _kept_checks(ladder: dict, rung: dict, quantities: list) -> list:
+    """A rung's committed ladder.csv rows (:func:`committed_rows`) of ``quantities`` as checks, for a contrast whose
+    side's runs are not at hand: its numbers are those of the code that measured them, with no measurement choices
+    to apply to both sides (the contrast's syst is then the larger side's)."""
+    from granflow.validation import Check
+
+    def num(r: dict, key: str) -> float:
+        v = pd.to_numeric(pd.Series([r.get(key)]), errors="coerce").iloc[0]
+        return float(v) if pd.notna(v) else float("nan")
+
+    out = []
+    for r in committed_rows(ladder, rung):
+        if not isinstance(r.get("quantity"), str) or not any(r["quantity"].startswith(q) for q in quantities):
+            continue
+        lo, hi = num(r, "paper_lo"), num(r, "paper_hi")
+        n = num(r, "n_replicates")
+        out.append(Check(r["quantity"], str(r.get("paper", "")), "", num(r, "ours"), num(r, "stat"),
+                         case=f"{rung['name']} (kept)", paper_range=(lo, hi) if math.isfinite(lo) or math.isfinite(hi)
+                         else None, syst=num(r, "syst"), run_to_run=num(r, "run_to_run"),
+                         n_replicates=int(n) if math.isfinite(n) else 1,
+                         kind=r["kind"] if isinstance(r.get("kind"), str) else "comparison"))
+    return out
+
+
 def contrast_table_checks(ladder: dict, contrast: dict, results: Path) -> tuple[list, list[dict], str]:
     """A contrast's rows (:func:`granflow.ladder_contrasts.contrast_checks`), the rung's case summaries, and what
     it waits for ("" when both sides are measured): the rung's checks from its analysed cases, the reference's
@@ -261,7 +285,9 @@ def contrast_table_checks(ladder: dict, contrast: dict, results: Path) -> tuple[
         base = rung_cases_root(results, ladder, rung)
         cases = {str(p.parent.parent.relative_to(base)): p.parent.parent
                  for p in sorted(base.glob("**/analysis/scalars.json"))}
-        return _headline_checks(ladder, base, cases, quantities)
+        if cases:
+            return _headline_checks(ladder, base, cases, quantities)
+        return _kept_checks(ladder, rung, quantities), []   # its runs absent: its committed rows, if any
 
     if contrast["rung"] not in by_name or contrast["reference"] not in {*by_name, RECORD}:
         return [], [], "waits for its rungs (not rungs of this ladder)"
@@ -639,7 +665,7 @@ def record(ladder: dict, results: Path, out: Path, keep_committed: bool = False)
     df = table(ladder, results, keep_committed)
     out = Path(out)
     (out / "figures").mkdir(parents=True, exist_ok=True)
-    df.to_csv(out / "ladder.csv", index=False, float_format="%.6g")
+    df.to_csv(out / "ladder.csv", index=False, float_format="%.9g")   # enough digits that a verdict judged again from the file reads alike
     text = markdown(df, ladder)
     (out / "ladder.md").write_text(text)
     figure(df, ladder, out / "figures" / "ladder.png")

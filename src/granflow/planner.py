@@ -65,7 +65,9 @@ def parse_target(text: str, known: dict[str, pd.DataFrame]) -> tuple[str, str, f
         p = float("nan")
     if not (math.isfinite(p) and p > 0):
         raise ConfigError(f"--target = {text!r}: P = {p_text!r}: allowed a positive percentage, e.g. 5%")
-    names = [q for q in dict.fromkeys(known[scene]["quantity"].dropna())]
+    table = known[scene]
+    costed = table[~table["state"].astype(str).str.startswith("contrast")] if "state" in table else table   # no cost
+    names = [q for q in dict.fromkeys(costed["quantity"].dropna())]
     found = [q for q in names if q.lower() == quantity.lower()] or \
             [q for q in names if quantity and quantity.lower() in q.lower()]
     if len(found) != 1:

@@ -91,6 +91,7 @@ def test_a_quantity_is_named_by_a_unique_part_or_whole_even_with_colons():
 def test_every_headline_of_every_ladder_is_answered_or_said_why_not():
     for scene in ("heap", "silo", "channel"):
         df = pd.read_csv(f"validation/{scene}/ladder.csv")
+        df = df[~df["state"].astype(str).str.startswith("contrast")]   # a contrast's rows cost nothing of their own
         for q in dict.fromkeys(df["quantity"].dropna()):
             for p in ("1%", "10%", "50%"):
                 a = answer(f"{scene}:{q}:{p}", 16)

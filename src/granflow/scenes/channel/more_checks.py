@@ -309,8 +309,7 @@ def case_more_checks(case) -> list[Check]:
                           f"particles' contact and kinetic stress, the weight their φ"))
 
     spin = spin_ratio(a)
-    # where the wall's layering ends is a choice: at a flat wall the particles order in layers ~3-4 d_p deep, and
-    # the ratio of bin-averaged spin to a gradient across those layers moves with the bins (0.5 d_p bins oscillate)
+    # where the flat wall's layering (~3-4 d_p) ends is a choice: 0.5 d_p bins there oscillate
     var = {"from 3 d_p": spin_ratio(a, 3.0)["mean"], "from 4 d_p": spin_ratio(a, 4.0)["mean"]}
     if math.isfinite(a.zones.x_plug_phi063):
         var["to the φ = 0.63 edge"] = spin_ratio(a, WALL_LAYER, a.zones.x_plug_phi063)["mean"]

@@ -18,6 +18,8 @@ Rubio-Largo, Maza & Hidalgo (2016) in the form the paper states it:
 * :math:`h_c` does not move with the kernel width (Fig. 9) and is the same for every size
   (Figs. 10-11), the partial kinetic pressure is larger for bigger particles and
   :math:`\\phi_s \\propto r_s^3` (Figs. 11-12): :mod:`granflow.scenes.silo.species_checks`;
+* φ and :math:`v_z` on the axis monotonic towards the orifice (Fig. 3):
+  :mod:`granflow.scenes.silo.field_checks`;
 * :math:`v_c^2` linear in R (the √R with Beverloo's offset): :mod:`granflow.scenes.silo.linearity`.
 
 A measurement with a free choice (a height range, a radial cut, a slab) carries a systematic error
@@ -32,6 +34,7 @@ import pandas as pd
 
 from granflow.validation import Check, systematic
 
+from .field_checks import monotonic_checks
 from .linearity import linearity_checks
 from .species_checks import kernel_width_check, species_checks
 
@@ -71,6 +74,7 @@ def profile_checks(profiles: dict, radii=None) -> list[Check]:
             + [contact_independence_check(get("contact_axis"))]
             + kinetic_contact_checks(get("kinetic_axis"), get("contact_axis"))
             + kinetic_growth_checks(get("kinetic_axis"))
+            + monotonic_checks(get("kinetic_axis"))
             + species_checks(get("partial_kinetic_axis"), get("sweep"), radii)
             + [kernel_width_check(get("sweep"))])
 

@@ -40,6 +40,7 @@ from granflow.validation import Check, ValidationResult, concat_profiles, read_c
 from granflow.validation import headline_errors as validation_errors
 
 import granflow.scenes.silo.analysis as sl
+from .field_checks import steady_rate_check
 from .profile_checks import profile_checks
 
 #: the silo scene's headline keys (``SiloScene.headline``) and, per key, the analysis's own error
@@ -501,7 +502,9 @@ def profiles(cases: list[SiloCase]) -> dict[str, pd.DataFrame]:
             plane.append(pd.DataFrame({**head, **{k: pl[k] for k in ("slab_half", "r_over_R", "vz", "vz_se", "phi",
                                                                     "phi_se", "n")}}))
         ax = sl.axis_profile(c.fields, "pk")
-        kinetic.append(pd.DataFrame({**head, "z_over_R": ax["z"] / R, "pk": ax["value"], "pk_se": ax["value_se"]}))
+        kinetic.append(pd.DataFrame({**head, "z_over_R": ax["z"] / R, "pk": ax["value"], "pk_se": ax["value_se"],
+                                     **{f"{f}{e}": sl.axis_profile(c.fields, f)[col].to_numpy()
+                                        for f in ("phi", "u_z") for e, col in (("", "value"), ("_se", "value_se"))}}))
         part = {**head, "z": ax["z"], "z_over_R": ax["z"] / R}
         for s in sl.species_ids(c.fields, "pk"):
             pk_s = sl.axis_profile(c.fields, f"pk_s{s}")
@@ -581,7 +584,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
     table = read_table(Path(scene_dir) / "table.csv")
     checks = (beverloo_checks(table) + velocity_exponent_checks(loaded)
               + [flow_scale_check(loaded), collapse_eq7_check(loaded), collapse_check(loaded)])
-    for make in (surface_rate_check, profile_check, transition_check, bulk_check, partial_check, contact_check):
+    for make in (surface_rate_check, steady_rate_check, profile_check, transition_check, bulk_check, partial_check, contact_check):
         checks += [make(c) for c in loaded]
     kept = profiles(loaded)
     # the checks made from the profiles the record keeps, by the code that judges a committed record again

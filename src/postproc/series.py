@@ -407,3 +407,26 @@ def steady_rate(t, m, t_start: float, t_end: float, n_blocks: int = 4, n_series:
     """
     out = steady_rate_errors(t, m, t_start, t_end, n_blocks=n_blocks, n_series=n_series)
     return out["rate"], out["se"]
+
+
+def window_acceleration(thermo: pd.DataFrame) -> dict:
+    r"""The bed's mean acceleration over the averaging window, :math:`a = du_{cm}/dt` in g.
+
+    A straight line through the averaging stage's thermo rows (``stage == "average"``) of
+    :math:`u_{cm}` against time (√(gd) per √(d/g)); its standard error is the fit's, times
+    :math:`\sqrt{g}`, the residuals' statistical inefficiency (they are correlated in time). A
+    still-creeping bed (:math:`a > 0`) lowers the stress ratio: the momentum balance of the layers
+    above z reads :math:`-\sigma_{xz}/\sigma_{zz} = \tan\theta - a/(g\cos\theta)`. NaN without an
+    averaging stage or with fewer than 4 rows.
+    """
+    from postproc.autocorr import statistical_inefficiency
+
+    avg = thermo[thermo["stage"] == "average"] if "stage" in thermo else thermo.iloc[:0]
+    t, u = avg["Time"].to_numpy(float), avg["v_ucm"].to_numpy(float)
+    if len(t) < 4 or not np.ptp(t) > 0:
+        return {"accel_cm": float("nan"), "accel_cm_se": float("nan"), "accel_rows": int(len(t))}
+    (slope, intercept), cov = np.polyfit(t, u, 1, cov=True)
+    resid = u - (slope * t + intercept)
+    g = statistical_inefficiency(resid) if np.std(resid) > 0 else 1.0
+    return {"accel_cm": float(slope), "accel_cm_se": float(np.sqrt(cov[0, 0] * max(g, 1.0))),
+            "accel_rows": int(len(t)), "u_cm_window": float(np.mean(u))}

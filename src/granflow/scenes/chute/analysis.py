@@ -30,6 +30,7 @@ from postproc.dump import read_dump
 from postproc.fields import FieldAccumulator
 from postproc.frame import ParticleFrame
 from postproc.kernels import HeavisideBins
+from postproc.series import window_acceleration  # noqa: F401 (moved there; re-exported)
 
 #: fields of the height profile
 PROFILE_FIELDS = ("n", "phi", "rho", "u", "T", "sigmac", "sigmak", "sigma")
@@ -196,29 +197,6 @@ def provenance(record: dict, status: str) -> str:
     r, p = record["rung_knobs"], record["parameters"]
     return (f"chute rung {record['rung']}: {r['Lx']:g}x{r['Ly']:g} d, H {r['H']:g} d, k_n {r['k_n']:.3g}, "
             f"dt {record['dt']:.3g}, N {p['n_particles']}, theta {p['theta_deg']:g} deg, {status}")
-
-
-def window_acceleration(thermo: pd.DataFrame) -> dict:
-    r"""The bed's mean acceleration over the averaging window, :math:`a = du_{cm}/dt` in g.
-
-    A straight line through the averaging stage's thermo rows (``stage == "average"``) of
-    :math:`u_{cm}` against time (√(gd) per √(d/g)); its standard error is the fit's, times
-    :math:`\sqrt{g}`, the residuals' statistical inefficiency (they are correlated in time). A
-    still-creeping bed (:math:`a > 0`) lowers the stress ratio: the momentum balance of the layers
-    above z reads :math:`-\sigma_{xz}/\sigma_{zz} = \tan\theta - a/(g\cos\theta)`. NaN without an
-    averaging stage or with fewer than 4 rows.
-    """
-    from postproc.autocorr import statistical_inefficiency
-
-    avg = thermo[thermo["stage"] == "average"] if "stage" in thermo else thermo.iloc[:0]
-    t, u = avg["Time"].to_numpy(float), avg["v_ucm"].to_numpy(float)
-    if len(t) < 4 or not np.ptp(t) > 0:
-        return {"accel_cm": float("nan"), "accel_cm_se": float("nan"), "accel_rows": int(len(t))}
-    (slope, intercept), cov = np.polyfit(t, u, 1, cov=True)
-    resid = u - (slope * t + intercept)
-    g = statistical_inefficiency(resid) if np.std(resid) > 0 else 1.0
-    return {"accel_cm": float(slope), "accel_cm_se": float(np.sqrt(cov[0, 0] * max(g, 1.0))),
-            "accel_rows": int(len(t)), "u_cm_window": float(np.mean(u))}
 
 
 def case_profile(case_dir: Path, record: dict, status: dict, window=None, n_blocks: int = 8):

@@ -243,7 +243,7 @@ def case_checks(case: ChuteCase, errors: dict) -> list[Check]:
 def acceleration_checks(case: ChuteCase, ratio: float, se: float, tan: float, why: str) -> list[Check]:
     r"""The momentum balance with the bed's acceleration over the window, and that acceleration.
 
-    A bed still creeping at :math:`a` (:func:`~granflow.scenes.chute.analysis.window_acceleration`,
+    A bed still creeping at :math:`a` (:func:`postproc.series.window_acceleration`,
     in g) balances :math:`-\sigma_{xz}/\sigma_{zz} = \tan\theta - a/\cos\theta`: the comparison
     is the stress ratio over that, its error the ratio's and the acceleration's in quadrature. The
     acceleration over :math:`g\sin\theta` (how much it lowers the plain ratio over tan θ) is a diagnostic.

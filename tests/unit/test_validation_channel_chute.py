@@ -69,7 +69,7 @@ def channel_profile() -> pd.DataFrame:
 
 
 def channel_case(tmp_path, name, status="steady", ratio=1.38, exponent=2.95, overlap=0.004,
-                 wall_force_mean=1002.0):
+                 wall_force_mean=1002.0, ucm_change=0.0):
     record = {"rung": "validation", "dt": 1.5e-4,
               "parameters": {"W": W, "phi_mean": 0.6, "n_particles": 1200, "t_c_min": 0.0019},
               "rung_knobs": {"W": W, "B": 5.0, "H": 12.0, "k_n": 1.0e6, "t_average": 300.0, "t_flow_max": 1500.0},
@@ -85,7 +85,10 @@ def channel_case(tmp_path, name, status="steady", ratio=1.38, exponent=2.95, ove
     rng = np.random.default_rng(7)
     n = 201
     thermo = pd.DataFrame({"Step": np.arange(n) * 1000, "Time": np.arange(n) * 1.0,
-                           "f_fwavg": wall_force_mean + 5.0 * rng.standard_normal(n), "stage": "average"})
+                           "f_fwavg": wall_force_mean + 5.0 * rng.standard_normal(n), "stage": "average",
+                           # u_cm about 30 √(g d_p), changing by ucm_change of it over the 200 of the window
+                           "v_ucm": 30.0 * (1 + ucm_change * (np.arange(n) - 100) / 200)
+                                    + 0.1 * rng.standard_normal(n)})
     return _write(tmp_path / name, record, st, scalars if steady else {"status": status},
                   channel_profile() if steady else pd.DataFrame(columns=["x", "x_lo", "x_hi"]), thermo)
 
@@ -158,7 +161,7 @@ def test_channel_case_without_a_steady_state_gives_nan_and_the_reason(tmp_path, 
 
     monkeypatch.setattr(headline, "measure_with_errors", no_dumps)
     result = chv.validation(tmp_path, {"W~20/phi~0.6": channel_case(tmp_path, "d", status="no_steady_state")})
-    assert len(result.checks) == 10   # the six headlines, drift, plug structure, plug order, wall force
+    assert len(result.checks) == 11   # the six headlines, drift, plug structure, plug order, u_cm change, wall force
     for check in result.checks:
         assert math.isnan(check.ours) and math.isnan(check.error)
         assert "no_steady_state" in check.note
@@ -332,3 +335,16 @@ def test_the_plugs_q6_row_reads_the_paper_bound_with_its_variants_as_syst(tmp_pa
     old = chv.plug_order_check(case(float("nan"), 0, 0, 0))
     assert math.isnan(old.ours) and "rerun analyse" in old.note
     assert "no_steady" in chv.plug_order_check(case(0.04, 0, 0, 0, why="no_steady_state")).note
+
+
+def test_channel_ucm_change_across_the_window_against_the_papers_one_percent(tmp_path, channel_errors):
+    """u_cm flat (noise 0.3 %) reads no change; rising 5 % across the window reads 5 %, beyond ± 1 %, and says it
+    drifts more than half the steadiness tolerance per window (2.5 % per 100 against 2 %)."""
+    result = chv.validation(tmp_path, {"flat": channel_case(tmp_path, "flat"),
+                                       "rising": channel_case(tmp_path, "rising", ucm_change=0.05)})
+    flat = _by(result.checks, "flat", "u_cm's change across the averaging window")
+    assert abs(flat.ours) < 0.002 and flat.verdict == "within the paper's range"
+    rising = _by(result.checks, "rising", "u_cm's change across the averaging window")
+    assert rising.ours == pytest.approx(0.05, abs=0.002) and rising.paper_range == (-0.01, 0.01)
+    assert rising.verdict.startswith("one sample: off by")
+    assert "% against its tolerance 2%" in rising.note and "more than half of it" in rising.note

@@ -303,14 +303,14 @@ def steadiness_and_plug_checks(case: ChannelCase) -> list[Check]:
         return [Check("drift of u_max/u_slip over the averaging window", "0 (steady)", "§2, §3.1", NAN, NAN, name,
                       (0.0, 0.0), note=why),
                 Check("plug: rms non-affine displacement over the window", "no number (a sheared plug at φ ≈ 0.63)",
-                      "§3.2", NAN, NAN, name, None, note=why), plug_order_check(case)]
+                      "§3.2", NAN, NAN, name, None, note=why), plug_order_check(case), ucm_change_check(case)]
     window = float(case.record["rung_knobs"]["t_average"])
     drift, drift_se = _value(case, "ratio_drift"), _value(case, "ratio_drift_se")
     note = (f"change of a straight line through u_max/u_slip of {int(sc.get('n_blocks', 0))} consecutive blocks of "
             f"the {window:g} √(d_p/g) window (blocks scatter by {_value(case, 'ratio_block_sd'):.3g}); error: "
             f"the slope's, from the blocks' scatter about the line. A steady flow has none")
     checks = [Check("drift of u_max/u_slip over the averaging window", "0 (steady)", "§2, §3.1", drift, drift_se,
-                    name, (0.0, 0.0), note=note)]
+                    name, (0.0, 0.0), note=note), ucm_change_check(case)]
     rms = _value(case, "plug_nonaffine_rms")
     state = ("one frozen configuration" if rms < FROZEN_BELOW else
              "rearranged" if rms >= REARRANGED_ABOVE else "partly rearranged")
@@ -327,6 +327,44 @@ def steadiness_and_plug_checks(case: ChannelCase) -> list[Check]:
     checks.append(Check("plug: rms non-affine displacement over the window", "no number (a sheared plug at φ ≈ 0.63)",
                         "§3.2", rms, NAN, name, None, unit="d_p", note=note))
     return checks + [plug_order_check(case)]
+
+
+#: u_cm "varies by less than 1 %" in the paper's steady flows (§3.1, fig. 3)
+UCM_CHANGE_BOUND = 0.01
+Q_UCM_CHANGE = "u_cm's change across the averaging window (its acceleration × the window / its mean)"
+
+
+def ucm_change_check(case: ChannelCase) -> Check:
+    """How far u_cm moves across the averaging window: a straight line through the averaging stage's
+    u_cm (:func:`postproc.series.window_acceleration`; error scaled by the residuals' statistical
+    inefficiency), its slope times the window over the mean, against the paper's "< 1 %" (fig. 3, its flows
+    steady after 2×10³ √(d_p/g)). The note sets the drift per steadiness window beside half the tolerance
+    the runner's steadiness test allowed."""
+    from postproc.series import window_acceleration
+
+    paper = "within ± 1 % (u_cm varies by less than 1 % at 0.59 ≤ φ̄ ≤ 0.61, after 2×10³ √(d_p/g))"
+    source = "§2; §3.1, fig. 3"
+    path = case.path / "run" / "thermo.csv"
+    th = pd.read_csv(path) if path.exists() and not case.why_not else None
+    if th is None or "v_ucm" not in th:
+        return Check(Q_UCM_CHANGE, paper, source, NAN, NAN, case.name, (-UCM_CHANGE_BOUND, UCM_CHANGE_BOUND),
+                     note=case.why_not or "no u_cm in run/thermo.csv")
+    acc = window_acceleration(th)
+    t = th.loc[th["stage"] == "average", "Time"] if "stage" in th else th["Time"].iloc[:0]
+    span = float(t.max() - t.min()) if len(t) > 1 else NAN
+    u = acc.get("u_cm_window", NAN)
+    change, change_se = acc["accel_cm"] * span / u, acc["accel_cm_se"] * span / abs(u)
+    proto = case.record.get("protocol", {})
+    window, tol = float(proto.get("steady_window", NAN)), float(proto.get("steady_rel_tol", NAN))
+    per_window = change * window / span
+    start = float(t.min()) if len(t) else NAN
+    note = (f"u_cm from {start:.0f} to {start + span:.0f} √(d_p/g) ({acc['accel_rows']} thermo rows, mean "
+            f"{u:.4g} √(g d_p)): a = {acc['accel_cm']:.3g} ± {acc['accel_cm_se']:.2g} g; per {window:g} √(d_p/g), "
+            f"the steadiness test's window, {per_window:+.2%} against its tolerance {tol:.0%} ("
+            + ("more than half of it: the window still drifts" if abs(per_window) > 0.5 * tol else "within half of it")
+            + "). The paper averages from 2×10³ √(d_p/g); the ladder's rung t_paper runs its protocol")
+    return Check(Q_UCM_CHANGE, paper, source, change, change_se, case.name, (-UCM_CHANGE_BOUND, UCM_CHANGE_BOUND),
+                 note=note)
 
 
 #: the paper's bound on the plug's order parameter: "no crystallization; the Q_6 order parameter

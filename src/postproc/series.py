@@ -19,6 +19,7 @@ function here takes arrays.
 """
 from __future__ import annotations
 
+import math
 from typing import Iterable
 
 import numpy as np
@@ -430,3 +431,17 @@ def window_acceleration(thermo: pd.DataFrame) -> dict:
     g = statistical_inefficiency(resid) if np.std(resid) > 0 else 1.0
     return {"accel_cm": float(slope), "accel_cm_se": float(np.sqrt(cov[0, 0] * max(g, 1.0))),
             "accel_rows": int(len(t)), "u_cm_window": float(np.mean(u))}
+
+
+def ucm_fluctuation(thermo: pd.DataFrame, detrend: bool = False) -> tuple[float, float]:
+    """Relative standard deviation of :math:`u_{cm}` (∝ the total momentum ``v_py``) over the thermo
+    rows of the averaging stage, and its error :math:`s_r\\sqrt{g/(2n)}` (g the series' statistical
+    inefficiency); with ``detrend`` about a straight line in time."""
+    th = thermo[thermo["stage"] == "average"] if "stage" in thermo else thermo.iloc[0:0]
+    if "v_py" not in th or len(th) < 8:
+        return float("nan"), float("nan")
+    p = th.sort_values("Step")["v_py"].to_numpy(float)
+    dev = p - np.polyval(np.polyfit(np.arange(len(p)), p, 1), np.arange(len(p))) if detrend else p - p.mean()
+    rel = float(np.std(dev, ddof=1) / abs(p.mean()))
+    g = mean_error(dev).g
+    return rel, rel * math.sqrt((g if math.isfinite(g) else 1.0) / (2.0 * len(p)))

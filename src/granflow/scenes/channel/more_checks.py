@@ -45,7 +45,7 @@ import pandas as pd
 from scipy import stats
 
 from granflow.validation import Check, systematic
-from postproc.autocorr import mean_error
+from postproc.series import ucm_fluctuation  # noqa: F401 (moved there; re-exported)
 
 from .analysis import ChannelAnalysis
 
@@ -214,20 +214,6 @@ def log_phi_curvature(a: ChannelAnalysis, skip: int, x_end: float) -> dict:
     line = weighted_polyfit(x[idx], y, y_se, 1)[2]
     return {"p": float(2.0 * stats.t.sf(abs(t), nu)), "curvature": float(coef[2]), "chi2_nu_line": line,
             "n": int(len(idx))}
-
-
-def ucm_fluctuation(thermo: pd.DataFrame, detrend: bool = False) -> tuple[float, float]:
-    """Relative standard deviation of :math:`u_{cm}` (∝ the total momentum ``v_py``) over the thermo
-    rows of the averaging stage, and its error :math:`s_r\\sqrt{g/(2n)}` (g the series' statistical
-    inefficiency); with ``detrend`` about a straight line in time."""
-    th = thermo[thermo["stage"] == "average"] if "stage" in thermo else thermo.iloc[0:0]
-    if "v_py" not in th or len(th) < 8:
-        return NAN, NAN
-    p = th.sort_values("Step")["v_py"].to_numpy(float)
-    dev = p - np.polyval(np.polyfit(np.arange(len(p)), p, 1), np.arange(len(p))) if detrend else p - p.mean()
-    rel = float(np.std(dev, ddof=1) / abs(p.mean()))
-    g = mean_error(dev).g
-    return rel, rel * math.sqrt((g if math.isfinite(g) else 1.0) / (2.0 * len(p)))
 
 
 def conduction_length(a: ChannelAnalysis, x_from: float) -> dict:

@@ -383,3 +383,19 @@ def test_the_phi_of_i_row_is_judged(tmp_path):
     low, high = (c.analysis for c in cases)
     assert row.ours == pytest.approx(kc.phi_of_i_ratio(high, low)["ratio"], rel=1e-12)
     assert row.paper_range == (1.0, 1.0) and row.kind == "comparison" and "equal I" in row.quantity
+
+
+def test_the_sigma_xy_balance_takes_the_flows_acceleration(tmp_path):
+    """σ_xy built as (1 − a/g) g∫ρ dx, the balance of a flow speeding up at a = 0.02 g, with u_cm rising at that
+    rate over the window: b/(1 − a/g) = 1; without u_cm in thermo.csv, b alone (0.98)."""
+    n = 301
+    t = np.arange(n) * 1.0
+    thermo = pd.DataFrame({"Step": np.arange(n) * 100, "Time": t, "stage": "average",
+                           "v_ucm": 30.0 + 0.02 * t, "v_py": -1000.0 * (1.0 + 0.02 * t / 30.0)})
+    profile = build_profile(sxy_factor=0.98)
+    accelerating = {c.quantity: c for c in mc.case_more_checks(make_case(tmp_path, "a", profile, thermo=thermo))}
+    assert accelerating[mc.Q_SXY].ours == pytest.approx(1.0, rel=1e-6)
+    assert "a = 0.02 ± " in accelerating[mc.Q_SXY].note
+    plain = {c.quantity: c for c in mc.case_more_checks(make_case(tmp_path, "b", profile,
+                                                                  thermo=thermo.drop(columns=["v_ucm"])))}
+    assert plain[mc.Q_SXY].ours == pytest.approx(0.98, rel=1e-6)

@@ -419,6 +419,16 @@ def window_acceleration(thermo: pd.DataFrame) -> dict:
     still-creeping bed (:math:`a > 0`) lowers the stress ratio: the momentum balance of the layers
     above z reads :math:`-\sigma_{xz}/\sigma_{zz} = \tan\theta - a/(g\cos\theta)`. NaN without an
     averaging stage or with fewer than 4 rows.
+
+    Parameters
+    ----------
+    thermo : DataFrame
+        ``Time``, ``v_ucm`` and ``stage`` (the averaging stage's rows are ``"average"``).
+
+    Returns
+    -------
+    dict
+        ``accel_cm`` and ``accel_cm_se`` (g), ``accel_rows``, ``u_cm_window`` (the window's mean u_cm).
     """
     from postproc.autocorr import statistical_inefficiency
 
@@ -436,7 +446,20 @@ def window_acceleration(thermo: pd.DataFrame) -> dict:
 def ucm_fluctuation(thermo: pd.DataFrame, detrend: bool = False) -> tuple[float, float]:
     """Relative standard deviation of :math:`u_{cm}` (∝ the total momentum ``v_py``) over the thermo
     rows of the averaging stage, and its error :math:`s_r\\sqrt{g/(2n)}` (g the series' statistical
-    inefficiency); with ``detrend`` about a straight line in time."""
+    inefficiency); with ``detrend`` about a straight line in time.
+
+    Parameters
+    ----------
+    thermo : DataFrame
+        ``Step``, ``v_py`` and ``stage`` (the averaging stage's rows are ``"average"``).
+    detrend : bool
+        Deviations about a straight line in time instead of about the mean.
+
+    Returns
+    -------
+    rel, rel_se : float
+        NaN without ``v_py`` or with fewer than 8 averaging rows.
+    """
     th = thermo[thermo["stage"] == "average"] if "stage" in thermo else thermo.iloc[0:0]
     if "v_py" not in th or len(th) < 8:
         return float("nan"), float("nan")

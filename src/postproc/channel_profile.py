@@ -59,16 +59,43 @@ def profile_from_frames(
     if "u_y" not in table:
         return table
     x = table["x"].to_numpy(float)
-    values, se = accumulator.errors_of(lambda fields: {SHEAR: shear_rate(x, fields["u_y"])}, [SHEAR])
-    fields = [c for c in table.columns if c not in ("x", "x_lo", "x_hi") and not c.endswith("_se")]
-    at = len(("x", "x_lo", "x_hi")) + len(fields)   # a field column among the fields, its error among the errors
-    table.insert(at, SHEAR, values[SHEAR])
-    table[f"{SHEAR}_se"] = se[SHEAR]
+    values, se = accumulator.errors_of(lambda fields: {SHEAR: shear_rate(x, fields["u_y"]),
+                                                       SCALED: scaled_velocity(fields["u_y"])}, [SHEAR, SCALED])
+    for name in (SHEAR, SCALED):
+        fields = [c for c in table.columns if c not in ("x", "x_lo", "x_hi") and not c.endswith("_se")]
+        at = len(("x", "x_lo", "x_hi")) + len(fields)   # a field column among the fields, its error among the errors
+        table.insert(at, name, values[name])
+        table[f"{name}_se"] = se[name]
     return table
 
 
 #: the shear-rate column of a channel profile
 SHEAR = "du_y_dx"
+#: the scaled-velocity column of a channel profile
+SCALED = "u_scaled"
+
+
+def scaled_velocity(u_y: np.ndarray) -> np.ndarray:
+    """:math:`(u - u_{slip})/(u_{max} - u_{slip})` across the channel, :math:`u = |u_y|` (the paper's eq. 3.1 scaling):
+    :math:`u_{slip}` the mean of the two wall bins, :math:`u_{max}` the fastest bin. Its error comes from the same
+    scaling of each block's and sub-block's profile (:meth:`~postproc.fields.FieldAccumulator.errors_of`): a change
+    of speed of the whole channel scales every bin alike and leaves it unchanged.
+
+    Parameters
+    ----------
+    u_y : ndarray
+        The bins' velocity along the flow, wall to wall.
+
+    Returns
+    -------
+    ndarray
+        The scaled velocity per bin (NaN with fewer than three bins or without shear).
+    """
+    u = np.abs(np.asarray(u_y, float))
+    if len(u) < 3 or not np.isfinite(u).all():
+        return np.full(len(u), np.nan)
+    slip, top = 0.5 * (u[0] + u[-1]), float(np.max(u))
+    return (u - slip) / (top - slip) if top > slip else np.full(len(u), np.nan)
 
 
 def shear_rate(x: np.ndarray, u_y: np.ndarray) -> np.ndarray:

@@ -376,3 +376,29 @@ def test_a_whole_channels_change_of_speed_leaves_the_shear_rates_error_alone():
     propagated = np.sqrt(2) * table["u_y_se"].to_numpy() / 2          # two bins 2 apart, errors independent
     assert np.all(se[1:-1] < 0.05 * propagated[1:-1])
     assert list(table.columns).index(SHEAR) < list(table.columns).index("n_se")   # a field among the fields
+
+
+def test_a_whole_channels_change_of_speed_leaves_the_scaled_velocitys_error_alone():
+    """The channel profile's (u − u_slip)/(u_max − u_slip) (postproc.channel_profile.scaled_velocity) takes its
+    error from each block's own scaling: a profile of the paper's shape whose whole channel jumps speed from
+    frame to frame gives the scaled profile of its mean, with an error far below the bins' own over the span."""
+    from postproc.channel_profile import SCALED, scaled_velocity
+
+    rng = np.random.default_rng(17)
+    W, n = 12.0, 1600
+    base = make_frame(rng, n, W, velocity=np.zeros(3), omega=np.zeros(3))
+    x = base.position[:, 0]
+    xw = np.minimum(x, W - x)
+    shape = 10.0 + 5.0 * (1.0 - np.exp(-xw))
+    frames = []
+    for k in range(64):
+        v = np.zeros((n, 3))
+        v[:, 1] = -(shape + rng.normal(0.0, 2.0)) + rng.normal(0.0, 0.01, n)   # downward; a common jump of ~2
+        frames.append(ParticleFrame(k, base.box, base.position, v, base.mass, base.radius, np.zeros((n, 3))))
+    table = profile_from_frames(frames, W)
+    assert_allclose(table[SCALED], scaled_velocity(table["u_y"].to_numpy()), atol=1e-9)
+    # the mean profile's scaling is the bins' own shape's: 0 at the walls' mean, 1 at the fastest bin
+    assert abs(0.5 * (table[SCALED].iloc[0] + table[SCALED].iloc[-1])) < 1e-9 and table[SCALED].max() == 1.0
+    span = float(np.abs(table["u_y"]).max() - np.abs(table["u_y"]).iloc[[0, -1]].mean())
+    se = table[f"{SCALED}_se"].to_numpy()
+    assert np.all(se < 0.05 * table["u_y_se"].to_numpy() / span)

@@ -38,6 +38,7 @@ from granflow.validation import (Check, ValidationResult, error_note, read_case,
 from postproc.autocorr import mean_error
 
 from .analysis import JOP2015, ChannelAnalysis, analyse_profile, plug_phi
+from .collapse_checks import scaled_profile_checks
 from .measurement import central_errors, headline_variants
 from .kinetic_checks import kinetic_checks
 from .more_checks import more_checks
@@ -407,7 +408,9 @@ def velocity_profile(case: ChannelCase) -> pd.DataFrame:
         "case": case.name, "W": a.W, "phi_mean": float(case.record["parameters"]["phi_mean"]),
         "x": x, "x_over_W": x / a.W, "x_over_delta": xi, "u": u, "u_se": u_se,
         "u_scaled": (u - s.u_slip) / span if span > 0 else NAN,
-        "u_scaled_se": u_se / span if span > 0 else NAN,
+        # the block-wise scaling's own error where the profile has it (a change of speed of the whole channel
+        # leaves the scaled profile alone), else the bins' over the span
+        "u_scaled_se": f["u_scaled_se"].to_numpy(float) if "u_scaled_se" in f else (u_se / span if span > 0 else NAN),
         "eq31": 1.0 - np.exp(-EXPONENT * xi),
     })
 
@@ -496,6 +499,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
     checks += more_checks(loaded) + kinetic_checks(loaded)  # the paper's other results one W and two φ̄ can test
     checks += zone_checks(loaded)  # the shear rate's curvature in the dense and loose zones
     checks += width_checks(loaded)  # and those two W at one φ̄ can
+    checks += scaled_profile_checks(loaded)  # one universal scaled profile across every case
     profiles = {}
     if velocity:
         profiles["velocity_scaled"] = pd.concat(velocity, ignore_index=True)

@@ -69,7 +69,8 @@ def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0,
     :data:`SIGMAS` combined errors; ``not resolved (± x)`` instead of either when :data:`SIGMAS`
     combined errors exceed :data:`RESOLUTION` of the paper's (non-zero) value: such an error could
     not tell a 25 % difference from none. Outside :data:`SIGMAS` errors: ``differs by X % (Y σ)``
-    with at least two replicates (``n_replicates``), else ``one sample: off by X % (Y σ)``
+    with at least two replicates (``n_replicates``), else ``one sample: off by X % (Y σ)``; beyond a bound about
+    zero (a range holding 0) X is the distance past the bound
     (the run-to-run scatter is not counted: a replicate decides). ``no statistical error`` when ours
     has none and lies outside the range. Against a paper value of 0 the difference is absolute.
     ``not measured`` when ours is NaN.
@@ -100,7 +101,9 @@ def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0,
         return f"within the systematic error (the difference {abs(diff):.3g} ≤ syst {sys_:.3g})", rel
     if sig > 0 and abs(diff) <= SIGMAS * sig:
         return f"within error ({abs(diff) / sig:.1f} σ)", rel
-    size = f"{100 * rel:+.1f} %" if nearest else f"{diff:+.3g} (the paper's value is 0)"
+    # a bound about zero (|x| < b, 0 ≤ x < b): how far beyond the bound, not a percentage of it
+    size = (f"{diff:+.3g} (the paper's value is 0)" if not nearest else
+            f"{diff:+.3g} beyond the paper's bound {nearest:g}" if lo <= 0.0 <= hi else f"{100 * rel:+.1f} %")
     words = f"differs by {size}" if n_replicates >= 2 else f"one sample: off by {size}"
     if sig > 0:
         parts = [name for name, x in (("syst", sys_), ("run-to-run", run_to_run)) if math.isfinite(x) and x > 0]

@@ -48,10 +48,21 @@ def ladders(root: Path = PROJECT_ROOT) -> dict[str, tuple[Path, Path]]:
     return out
 
 
-def parse_target(text: str, known: dict[str, pd.DataFrame]) -> tuple[str, str, float]:
+def rung_headlines(ladder: dict) -> dict[str, list[str]]:
+    """A rung's or pool's own ``headlines:`` (quantities it alone reads) -> the rungs that name it."""
+    out: dict[str, list[str]] = {}
+    for item in ladder.get("rungs", []) + ladder.get("pools", []) + ladder.get("planned", []):
+        for head in item.get("headlines", []):
+            out.setdefault(head, []).append(item["name"])
+    return out
+
+
+def parse_target(text: str, known: dict[str, pd.DataFrame],
+                 headlines: dict[str, dict[str, list[str]]] | None = None) -> tuple[str, str, float]:
     """``SCENE:QUANTITY:P%`` -> (scene, the one quantity of its ladder QUANTITY names, P as a fraction); the
-    quantity is any unique part of its name (case ignored; it may itself hold ':'). Refused (:class:`ConfigError`)
-    naming the key, the value and what is allowed."""
+    quantity is any unique part of its name (case ignored; it may itself hold ':'), a quantity of the scene's
+    ``ladder.csv`` or a rung's own headline that no row holds yet (``headlines``: scene -> :func:`rung_headlines`).
+    Refused (:class:`ConfigError`) naming the key, the value and what is allowed."""
     parts = str(text).split(":")
     if len(parts) < 3:
         raise ConfigError(f"--target = {text!r}: allowed SCENE:QUANTITY:P%, e.g. 'channel:u_max:1%'")
@@ -67,9 +78,16 @@ def parse_target(text: str, known: dict[str, pd.DataFrame]) -> tuple[str, str, f
         raise ConfigError(f"--target = {text!r}: P = {p_text!r}: allowed a positive percentage, e.g. 5%")
     table = known[scene]
     costed = table[~table["state"].astype(str).str.startswith("contrast")] if "state" in table else table   # no cost
-    names = [q for q in dict.fromkeys(costed["quantity"].dropna())]
-    found = [q for q in names if q.lower() == quantity.lower()] or \
-            [q for q in names if quantity and quantity.lower() in q.lower()]
+    rows = [q for q in dict.fromkeys(costed["quantity"].dropna())]
+    # a rung's own headline that no row holds yet is matched only where the rows' quantities match none
+    waiting = [h for h in (headlines or {}).get(scene, {}) if not any(str(q).startswith(h) for q in rows)]
+    found, names = [], rows
+    for names in (rows, waiting):
+        found = [q for q in names if q.lower() == quantity.lower()] or \
+                [q for q in names if quantity and quantity.lower() in q.lower()]
+        if found:
+            break
+    names = rows + waiting if not found else names
     if len(found) != 1:
         what = "names more than one" if found else "names none"
         raise ConfigError(f"--target = {text!r}: quantity = {quantity!r} {what} of the {scene} ladder's quantities: "
@@ -159,8 +177,10 @@ def answer(target: str, cores: int, root: Path = PROJECT_ROOT) -> dict:
     """One answer to ``SCENE:QUANTITY:P%`` (:func:`parse_target`) as a dict with ``line``, its text."""
     found = ladders(root)
     tables = {scene: pd.read_csv(record) for scene, (_, record) in found.items()}
-    scene, quantity, p = parse_target(target, tables)
-    df, ladder = tables[scene], load_ladder(found[scene][0])
+    loaded = {scene: load_ladder(path) for scene, (path, _) in found.items()}
+    heads = {scene: rung_headlines(lad) for scene, lad in loaded.items()}
+    scene, quantity, p = parse_target(target, tables, heads)
+    df, ladder = tables[scene], loaded[scene]
     rows = df[(df["quantity"] == quantity) & df["state"].astype(str).str.startswith("run")
               & np.isfinite(df["ours"].astype(float))]
     r2r = run_to_run(df, ladder, quantity)
@@ -203,6 +223,12 @@ def reasons(df: pd.DataFrame, ladder: dict, quantity: str, p: float, measured: l
     """Why neither a measured rung nor the series answers: noise, a paper value of 0, no or no good series, and
     the rungs nearer the paper's setup that are planned or not run (their CPU-hours)."""
     out = []
+    holders = rung_headlines(ladder).get(quantity, [])
+    if holders and not (df["quantity"] == quantity).any():
+        states = df.drop_duplicates("rung").set_index("rung")["state"].astype(str)
+        return ["no rung measured it: it is the headline of " + ", ".join(
+            f"{r} ({states.get(r, 'not in ladder.csv')})" for r in holders)
+                + f" (priced by `granflow plan --config {LADDER_DIR}/{ladder['scene']}.yaml`)"]
     if not measured:
         out.append("no rung measured it")
     elif all(not math.isfinite(m[0]) for m in measured):
@@ -217,7 +243,8 @@ def reasons(df: pd.DataFrame, ladder: dict, quantity: str, p: float, measured: l
             out.append(f"no measured rung is within it (nearest {min(m[0] for m in measured) * 100:.2g} % outside)")
     out.append(why)
     nearest = min((m[2]["from_paper"] for m in measured), default=math.inf)
-    later = df[(df["from_paper"] <= nearest) & ~df["state"].astype(str).str.startswith("run")].drop_duplicates("rung")
+    state = df["state"].astype(str)
+    later = df[(df["from_paper"] <= nearest) & ~state.str.startswith(("run", "contrast"))].drop_duplicates("rung")
     if len(later):
         out.append("rungs as near the paper's setup or nearer, not run: " + ", ".join(
             f"{r['rung']} ({'planned, ' if str(r['state']).startswith('planned') else ''}"
@@ -230,5 +257,5 @@ def format_answers(answers: list[dict]) -> str:
     return "\n".join(a["line"] for a in answers)
 
 
-__all__ = ["answer", "parse_target", "excess", "run_to_run", "wall_hours", "cost_along", "extrapolate", "reasons",
+__all__ = ["answer", "parse_target", "rung_headlines", "excess", "run_to_run", "wall_hours", "cost_along", "extrapolate", "reasons",
            "ladders", "format_answers", "PARTICLES_PER_RANK"]

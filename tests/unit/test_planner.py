@@ -2,6 +2,7 @@
 paper, else the series' extrapolation priced, else why neither; bad input refused naming key, value, allowed."""
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -99,6 +100,21 @@ def test_every_headline_of_every_ladder_is_answered_or_said_why_not():
                 assert "\n" not in a["line"] and a["line"].startswith(f"{scene} '{q}' within")
                 if a["answer"] == "cannot answer":
                     assert a["reasons"] and all(a["reasons"])
+
+
+def test_a_rungs_own_headline_without_rows_yet_names_the_rung_that_reads_it():
+    """A headline only a rung names (phi062's loose zone, t_paper's u_cm) is answered before the rung has run:
+    'cannot answer', naming the rung and its state; a ladder quantity keeps its name when a headline shares a part."""
+    from granflow.ladder import load_ladder
+    from granflow.planner import rung_headlines
+
+    heads = rung_headlines(load_ladder(Path("config/ladders/channel.yaml")))
+    for head, rungs in heads.items():
+        a = answer(f"channel:{head}:10%", 4)
+        if a["answer"] == "cannot answer" and "headline of" in a["reasons"][0]:
+            assert all(r in a["line"] for r in rungs)
+    tables = {"channel": pd.read_csv("validation/channel/ladder.csv")}
+    assert parse_target("channel:u_max:1%", tables, {"channel": heads})[1] == "u_max/u_slip"
 
 
 def test_the_channel_answers_measured_extrapolated_and_noise():

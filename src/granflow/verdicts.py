@@ -102,8 +102,9 @@ def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0,
     if sig > 0 and abs(diff) <= SIGMAS * sig:
         return f"within error ({abs(diff) / sig:.1f} σ)", rel
     # a bound about zero (|x| < b, 0 ≤ x < b): how far beyond the bound, not a percentage of it
+    bound = bool(nearest) and lo <= 0.0 <= hi
     size = (f"{diff:+.3g} (the paper's value is 0)" if not nearest else
-            f"{diff:+.3g} beyond the paper's bound {nearest:g}" if lo <= 0.0 <= hi else f"{100 * rel:+.1f} %")
+            f"{diff:+.3g}" if bound else f"{100 * rel:+.1f} %")
     words = f"differs by {size}" if n_replicates >= 2 else f"one sample: off by {size}"
     if sig > 0:
         parts = [name for name, x in (("syst", sys_), ("run-to-run", run_to_run)) if math.isfinite(x) and x > 0]
@@ -112,6 +113,8 @@ def verdict(ours: float, error: float, paper_range, paper_error: float = 0.0,
         words += f" ({abs(diff) / sig:.0f} σ{' with ' + counted if parts else ''})"
     elif not math.isfinite(error):
         words += " (no statistical error)"
+    if bound:
+        words += f", past the paper's bound {nearest:g}"
     if n_replicates < 2:
         words += "; 'differs' needs two replicates"
     return words, rel

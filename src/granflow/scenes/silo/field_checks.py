@@ -112,7 +112,8 @@ def _monotonic(kinetic: pd.DataFrame | None, column: str, sign: float, q: str, p
             out.append(Check(q, paper, MONOTONIC_SOURCE, float("nan"), case=case,
                              note=f"fewer than 3 axis nodes in 0 ≤ z ≤ {SPAN:g}R"))
             continue
-        rho = float(spearmanr(z[sel], v[sel]).statistic)
+        # a flat profile has no rank order (Spearman's ρ undefined): NaN
+        rho = float(spearmanr(z[sel], v[sel]).statistic) if np.ptp(v[sel]) > 0 else float("nan")
         rev = largest_reversal(z[sel], v[sel], se[sel])
         rise = float(np.nanmax(v[sel]) - np.nanmin(v[sel]))
         sigmas = rev["reversal"] / rev["reversal_se"] if rev["reversal_se"] > 0 else float("nan")

@@ -89,3 +89,14 @@ def test_monotonic_checks_read_one_for_monotonic_fields_and_less_for_a_bump():
     both = pd.concat([_kinetic(phi, uz, "R~6"), _kinetic(phi, uz, "R~12")])
     assert [c.case for c in monotonic_checks(both)] == ["R~6", "R~12", "R~6", "R~12"]
     assert all(math.isnan(c.ours) for c in monotonic_checks(_kinetic(phi, uz).drop(columns=["phi", "u_z"])))
+
+
+def test_the_axis_span_stops_below_the_free_surface():
+    """A φ that falls again near the top of the span, where the surface passes while the silo empties (R = 12,
+    surface at 1.75 R): the nodes within 6 r_b of it are left out, and the rest reads monotonic."""
+    z = np.linspace(0, 2.5, 31)
+    phi = np.where(z < 1.3, 0.6 - 0.25 * np.exp(-3 * z), 0.6 - 0.25 * np.exp(-3.9) - 0.2 * (z - 1.3))
+    kin = _kinetic(phi, -0.5 * np.exp(-z)).assign(z_surface_over_R=1.75)
+    rows = monotonic_checks(kin)
+    assert rows[0].ours == 1.0 and "up to 1.25R" in rows[0].note and "(1.75R)" in rows[0].note
+    assert monotonic_checks(kin.drop(columns=["z_surface_over_R"]))[0].ours < 0.5     # the whole 2R span reads the fall

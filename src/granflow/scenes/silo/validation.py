@@ -502,7 +502,10 @@ def profiles(cases: list[SiloCase]) -> dict[str, pd.DataFrame]:
             plane.append(pd.DataFrame({**head, **{k: pl[k] for k in ("slab_half", "r_over_R", "vz", "vz_se", "phi",
                                                                     "phi_se", "n")}}))
         ax = sl.axis_profile(c.fields, "pk")
+        in_window = c.flow[(c.flow["t"] >= c.get("t_start")) & (c.flow["t"] <= c.get("t_end"))] if "z_s" in c.flow else []
+        surface = float(in_window["z_s"].min()) / R if len(in_window) else np.nan   # the free surface's lowest
         kinetic.append(pd.DataFrame({**head, "z_over_R": ax["z"] / R, "pk": ax["value"], "pk_se": ax["value_se"],
+                                     "z_surface_over_R": surface,
                                      **{f"{f}{e}": sl.axis_profile(c.fields, f)[col].to_numpy()
                                         for f in ("phi", "u_z") for e, col in (("", "value"), ("_se", "value_se"))}}))
         part = {**head, "z": ax["z"], "z_over_R": ax["z"] / R}

@@ -14,6 +14,10 @@ import pandas as pd
 from granflow.validation import format_with_errors
 
 
+#: panels per row of the ladder's figure (a ladder with pools has more headlines than fit on one row)
+FIGURE_COLUMNS = 4
+
+
 def figure(df: pd.DataFrame, ladder: dict, path: Path) -> None:
     import matplotlib
 
@@ -21,10 +25,16 @@ def figure(df: pd.DataFrame, ladder: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     run = df[df["state"].str.startswith("run")] if "state" in df else df.iloc[:0]
+    if len(run) and "abs_rel_difference" in run:   # a diagnostic (no difference from the paper) has no point
+        run = run[pd.to_numeric(run["abs_rel_difference"], errors="coerce").notna()]
     heads = list(dict.fromkeys(run["quantity"])) if len(run) else []
-    fig, axes = plt.subplots(1, max(1, len(heads)), figsize=(4.6 * max(1, len(heads)), 4.2), squeeze=False)
+    ncol = min(FIGURE_COLUMNS, max(1, len(heads)))
+    nrow = max(1, math.ceil(len(heads) / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 4.2 * nrow), squeeze=False)
+    for ax in axes.flat[len(heads):] if heads else ():
+        ax.set_visible(False)
     planned = df[df["state"].str.startswith("planned")]
-    for ax, q in zip(axes[0], heads):
+    for ax, q in zip(axes.flat, heads):
         sub = run[run["quantity"] == q]
         for i, (_, r) in enumerate(sub.iterrows()):
             ax.errorbar([r["cpu_hours"]], [r["abs_rel_difference"]], yerr=[r["rel_error"]], marker="os^Dv<>"[i % 7],

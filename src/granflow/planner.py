@@ -61,7 +61,8 @@ def parse_target(text: str, known: dict[str, pd.DataFrame],
                  headlines: dict[str, dict[str, list[str]]] | None = None) -> tuple[str, str, float]:
     """``SCENE:QUANTITY:P%`` -> (scene, the one quantity of its ladder QUANTITY names, P as a fraction); the
     quantity is any unique part of its name (case ignored; it may itself hold ':'), a quantity of the scene's
-    ``ladder.csv`` or a rung's own headline that no row holds yet (``headlines``: scene -> :func:`rung_headlines`).
+    ``ladder.csv`` or a rung's own headline that no row holds yet (``headlines``: scene -> :func:`rung_headlines`);
+    where a part names several, the one that is not a rung's or pool's own headline wins.
     Refused (:class:`ConfigError`) naming the key, the value and what is allowed."""
     parts = str(text).split(":")
     if len(parts) < 3:
@@ -87,6 +88,9 @@ def parse_target(text: str, known: dict[str, pd.DataFrame],
                 [q for q in names if quantity and quantity.lower() in q.lower()]
         if found:
             break
+    if len(found) > 1:   # the ladder's own headlines before what only a rung or pool reads ('u_max' is u_max/u_slip)
+        own = [q for q in found if not any(str(q).startswith(h) for h in (headlines or {}).get(scene, {}))]
+        found = own if len(own) == 1 else found
     names = rows + waiting if not found else names
     if len(found) != 1:
         what = "names more than one" if found else "names none"

@@ -67,6 +67,7 @@ def test_widths_built_on_the_papers_scalings_pass(tmp_path):
     # l_s from eq. 3.1: u_slip δ/(3 (u_max − u_slip)) ∝ δ ∝ W, so (l_s/W) is the same at both widths
     assert checks[wc.Q_SLIP_LENGTH].ours == pytest.approx(1.0, abs=0.03)
     assert checks[wc.Q_SXX_W].ours == pytest.approx(1.0, rel=1e-6)
+    assert checks[wc.Q_SXX_RISE].ours == pytest.approx(1.5, rel=1e-6)
     assert checks[wc.Q_MU_WALL_W].ours == pytest.approx(0.0, abs=0.02)
     for q in wc.QUANTITIES:
         c = checks[q]
@@ -81,6 +82,7 @@ def test_the_scalings_broken_fail(tmp_path):
     assert checks[wc.Q_USLIP_W].ours == pytest.approx(1.0, abs=3e-3)
     assert checks[wc.Q_SXX_W].ours == pytest.approx(100.0 / 150.0, rel=1e-6)
     assert checks[wc.Q_SXX_W].verdict.startswith("one sample: off")
+    assert checks[wc.Q_SXX_RISE].ours == pytest.approx(1.0, rel=1e-6)       # σ_xx does not rise: on the bound
     assert checks[wc.Q_MU_WALL_W].ours > 0.05
     assert checks[wc.Q_MU_WALL_W].verdict.startswith("one sample: off")
     assert checks[wc.Q_SQRT_W].ours == pytest.approx(0.0, abs=0.02)
@@ -98,9 +100,18 @@ def test_a_speed_that_rises_more_than_the_papers_factor_fails(tmp_path):
 def test_a_pair_with_the_narrow_width_below_100_judges_no_scaling(tmp_path):
     checks = rows([paper_like(tmp_path, 60.0), paper_like(tmp_path, 100.0)])
     # the paper's δ0.95 ∝ W and l_s ∝ W hold from W = 100 d_p: at 60 they are readings, and u ∝ √W is not read
-    assert checks[wc.Q_DELTA_W].kind == checks[wc.Q_SLIP_LENGTH].kind == "diagnostic"
+    # and σ_xx/W 'varies very little for W > 60 d_p': at 60 a reading too
+    assert checks[wc.Q_DELTA_W].kind == checks[wc.Q_SLIP_LENGTH].kind == checks[wc.Q_SXX_W].kind == "diagnostic"
     assert wc.Q_SQRT_W not in checks
-    assert checks[wc.Q_SXX_W].kind == checks[wc.Q_MU_WALL_W].kind == checks[wc.Q_USLIP_W].kind == "comparison"
+    # σ_xx's rise, μ_wall's independence and the speeds' rise the paper states at every width
+    assert checks[wc.Q_SXX_RISE].kind == checks[wc.Q_MU_WALL_W].kind == checks[wc.Q_USLIP_W].kind == "comparison"
+
+
+def test_sigma_xx_that_falls_with_width_fails_its_rise(tmp_path):
+    # σ_xx ∝ W^-0.5: the wider channel's plateau is lower, against 'a significant increase as W is increased'
+    checks = rows([paper_like(tmp_path, 60.0, sxx_exponent=-0.5), paper_like(tmp_path, 100.0, sxx_exponent=-0.5)])
+    assert checks[wc.Q_SXX_RISE].ours == pytest.approx((100.0 / 60.0) ** -0.5, rel=1e-6)
+    assert checks[wc.Q_SXX_RISE].verdict.startswith("one sample: off")
 
 
 def test_pairs_are_taken_at_each_phi_bar_and_need_two_widths(tmp_path):

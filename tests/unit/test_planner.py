@@ -115,6 +115,8 @@ def test_a_rungs_own_headline_without_rows_yet_names_the_rung_that_reads_it():
             assert all(r in a["line"] for r in rungs)
     tables = {"channel": pd.read_csv("validation/channel/ladder.csv")}
     assert parse_target("channel:u_max:1%", tables, {"channel": heads})[1] == "u_max/u_slip"
+    # the pool W60_W100's row is named by a part only it holds
+    assert parse_target("channel:u_max at the wider:1%", tables, {"channel": heads})[1].startswith("u_max at the wider W")
 
 
 def test_the_channel_answers_measured_extrapolated_and_noise():

@@ -9,8 +9,10 @@ from the cases' :class:`~.analysis.ChannelAnalysis`:
 * §3.1: the slip length :math:`l_s = u_{slip}/(du_y/dx)_{wall}`, the gradient from eq. (3.1) as the paper
   takes it, grows :math:`\\propto W`: the ratio of :math:`l_s/W` of the wider W to the narrower's (paper 1),
   a comparison, as for δ0.95/W below, only when both widths are at least 100 d_p;
-* fig. 7(a): :math:`\\sigma_{xx}/W` varies little with W for W > 60 d_p: the ratio of :math:`\\sigma_{xx}/W`
-  (σ_xx's plateau beyond the wall bin) of the wider W to the narrower's (paper 1);
+* fig. 7(a): σ_xx rises significantly with W (at every W): the ratio of the wider W's plateau (σ_xx beyond
+  the wall bin) to the narrower's (paper > 1); and :math:`\\sigma_{xx}/W` "varies very little as W is varied
+  for W > 60 d_p": the ratio of :math:`\\sigma_{xx}/W` of the wider W to the narrower's (paper 1), a comparison
+  only when both widths exceed 60 d_p (the paper's widths: from 100 on), else a diagnostic;
 * fig. 7(b): :math:`\\mu_{wall}` independent of W: the difference, wider minus narrower (paper 0);
 * fig. 5(d): :math:`\\delta_{0.95}/W` independent of W for W ≥ 100 d_p, not at 60: the ratio is a
   comparison only when both widths are at least 100 d_p, else a diagnostic (the row's own kind).
@@ -46,11 +48,12 @@ Q_USLIP_W = "u_slip at the wider W over at the narrower, same φ̄"
 Q_UMAX_W = "u_max at the wider W over at the narrower, same φ̄"
 Q_SLIP_LENGTH = "slip length l_s/W at the wider W over at the narrower, same φ̄"
 Q_SXX_W = "σ_xx/W at the wider W over at the narrower, same φ̄"
+Q_SXX_RISE = "σ_xx at the wider W over at the narrower, same φ̄"
 Q_MU_WALL_W = "μ_wall at the wider W minus at the narrower, same φ̄"
 Q_DELTA_W = "δ0.95/W at the wider W over at the narrower, same φ̄"
 Q_SQRT_W = "u_max ∝ W^b across W ≥ 100 d_p, same φ̄: exponent b"
 #: every quantity this module writes (paper_results.yaml's compared_by names them)
-QUANTITIES = (Q_USLIP_W, Q_UMAX_W, Q_SLIP_LENGTH, Q_SXX_W, Q_MU_WALL_W, Q_DELTA_W, Q_SQRT_W)
+QUANTITIES = (Q_USLIP_W, Q_UMAX_W, Q_SLIP_LENGTH, Q_SXX_RISE, Q_SXX_W, Q_MU_WALL_W, Q_DELTA_W, Q_SQRT_W)
 
 
 def width_pairs(cases: list) -> list[tuple]:
@@ -131,11 +134,19 @@ def _pair_checks(narrow, wide) -> list[Check]:
                           f"gives 1, an l_s independent of W {lo.W / hi.W:.3g}. {why_wide}"))
 
     p = plateau_ratio(hi, lo, hi.W, lo.W)
-    out.append(Check(Q_SXX_W, "1: σ_xx/W varies little with W for W > 60 d_p (σ_xx ∝ W)", "§3.1, fig. 7(a)",
-                     p["ratio"], p["se"], name, (1.0, 1.0), syst=p["syst"], variants=p["variants"],
-                     note=f"σ_xx's plateau (weighted line's mean beyond the wall bin) = {p['hi']:.4g} at W = "
-                          f"{hi.W:g}, {p['lo']:.4g} at {lo.W:g} ρ_p g d_p (φ̄ = {phi:g}); bins taken as "
-                          f"independent, each with its correlation-aware error"))
+    plateaus = (f"σ_xx's plateau (weighted line's mean beyond the wall bin) = {p['hi']:.4g} at W = {hi.W:g}, "
+                f"{p['lo']:.4g} at {lo.W:g} ρ_p g d_p (φ̄ = {phi:g}); bins taken as independent, each with its "
+                f"correlation-aware error")
+    widths = hi.W / lo.W
+    out.append(Check(Q_SXX_RISE, "> 1: 'a significant increase in σ_xx as W is increased'", "§3.1, fig. 7(a)",
+                     p["ratio"] * widths, p["se"] * widths, name, (1.0, INF), syst=p["syst"] * widths,
+                     variants=p["variants"], note=f"{plateaus}. σ_xx ∝ W gives {widths:.3g}"))
+    sxx_kind = "comparison" if lo.W > PAPER_WIDTHS[0] else "diagnostic"
+    out.append(Check(Q_SXX_W, "1: σ_xx/W varies very little with W for W > 60 d_p (σ_xx ∝ W)", "§3.1, fig. 7(a)",
+                     p["ratio"], p["se"], name, (1.0, 1.0), kind=sxx_kind, syst=p["syst"], variants=p["variants"],
+                     note=f"{plateaus}. " + ("Both widths exceed 60 d_p: compared" if sxx_kind == "comparison" else
+                                             f"The paper's σ_xx/W holds 'for W > {PAPER_WIDTHS[0]:g} d_p', so a pair "
+                                             f"with W = {lo.W:g} compares no number")))
 
     m = mu_wall_change(hi, lo)
     out.append(Check(Q_MU_WALL_W, "0: μ_wall independent of W", "§3.1, fig. 7(b)", m["change"], m["se"], name,

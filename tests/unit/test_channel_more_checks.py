@@ -399,3 +399,20 @@ def test_the_sigma_xy_balance_takes_the_flows_acceleration(tmp_path):
     plain = {c.quantity: c for c in mc.case_more_checks(make_case(tmp_path, "b", profile,
                                                                   thermo=thermo.drop(columns=["v_ucm"])))}
     assert plain[mc.Q_SXY].ours == pytest.approx(0.98, rel=1e-6)
+
+
+def test_u_cm_fluctuates_by_1_to_2_percent_at_the_papers_phi_max(tmp_path):
+    """At φ̄ = 0.62 the paper sees u_cm fluctuate by 1–2 % (below 0.62 less than 1 %): the row's range follows φ̄,
+    and above 0.62 (no flow in the paper) there is no row."""
+    def row(name, fluctuation):
+        case = make_case(tmp_path, name, build_profile(), phi_mean=float(name.split("~")[-1]),
+                         thermo=thermo_with(fluctuation))
+        found = [c for c in mc.case_more_checks(case) if c.quantity == mc.Q_UCM]
+        return found[0] if found else None
+
+    at_max = row("W~30/phi~0.62", 0.015)
+    assert at_max.paper_range == mc.UCM_AT_PHI_MAX and at_max.verdict == "within the paper's range"
+    assert row("W~30/phi~0.620", 0.004).verdict.startswith("one sample: off")   # too steady for 0.62
+    assert row("W~30/phi~0.60", 0.004).paper_range == (0.0, mc.UCM_BOUND)
+    assert row("W~30/phi~0.63", 0.004) is None
+

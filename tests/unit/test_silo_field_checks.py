@@ -99,4 +99,7 @@ def test_the_axis_span_stops_below_the_free_surface():
     kin = _kinetic(phi, -0.5 * np.exp(-z)).assign(z_surface_over_R=1.75)
     rows = monotonic_checks(kin)
     assert rows[0].ours == 1.0 and "up to 1.25R" in rows[0].note and "(1.75R)" in rows[0].note
+    # the margin's choice is the systematic error: 4 r_b below the surface reaches 1.42R, into the fall
+    assert "4 r_b below the surface" in rows[0].variants and "span 0-1.5R: 1" in rows[0].variants
+    assert rows[0].syst > 0.0
     assert monotonic_checks(kin.drop(columns=["z_surface_over_R"]))[0].ours < 0.5     # the whole 2R span reads the fall

@@ -76,6 +76,32 @@ LOST_ATOMS = ("lost atoms: a particle left the box, through a wall it was pushed
               "(contacts too soft for the impact speeds) or past a fixed box face it was thrown through")
 
 
+def overlap_history(thermo: pd.DataFrame) -> str:
+    """How the largest overlap reached the guard, from the run's thermo (``Time``, ``v_overlap``): one impact
+    (the last thermo interval holds most of it: contacts too soft for the speed of a collision), or a steady
+    rise (one contact loaded ever harder, as a particle wedged between fixed ones or pressed into a wall is,
+    which no time step cures), or else the rise in numbers. Empty without the columns or three samples."""
+    if not {"Time", "v_overlap"} <= set(thermo) or len(thermo) < 3:
+        return ""
+    t, ov = thermo["Time"].to_numpy(float), thermo["v_overlap"].to_numpy(float)
+    ok = np.isfinite(t) & np.isfinite(ov)
+    t, ov = t[ok], ov[ok]
+    if len(t) < 3 or not ov[-1] > 0:
+        return ""
+    jump = ov[-1] - ov[-2]
+    if jump > 0.5 * ov[-1]:
+        return (f"the largest overlap jumped {ov[-2]:.3g} → {ov[-1]:.3g} d_min within one thermo interval "
+                f"(t = {t[-2]:.4g}-{t[-1]:.4g}): an impact faster than the contacts' stiffness allows")
+    # a steady rise: the overlap rises with time over the run (rank correlation) and has climbed from a small start
+    ranks = np.corrcoef(np.argsort(np.argsort(t)), np.argsort(np.argsort(ov)))[0, 1]
+    if ranks > 0.9 and ov[0] < 0.25 * ov[-1]:
+        return (f"the largest overlap rose steadily, {ov[0]:.3g} → {ov[-1]:.3g} d_min over t = {t[0]:.4g}-{t[-1]:.4g} "
+                f"(rank correlation with time {ranks:.2f}): one contact loaded ever harder, as a particle wedged "
+                f"between fixed particles or pressed into a wall is, not an impact")
+    return (f"the largest overlap rose {ov[-2]:.3g} → {ov[-1]:.3g} d_min over the last thermo interval, "
+            f"{float(np.median(ov)):.3g} its median over the run")
+
+
 def dangerous_builds(log_text: str) -> int:
     """Sum of LAMMPS's ``Dangerous builds = N`` lines in a log."""
     return sum(int(l.split("=")[1]) for l in log_text.splitlines() if l.startswith("Dangerous builds ="))
@@ -412,6 +438,16 @@ class CaseRunner:
             raise self._stopped_by_os(steady, exc) from None
         return self._conclude(steady, k, n_avg, unstable)
 
+    def _with_halted(self, thermo: pd.DataFrame, reason: str) -> pd.DataFrame:
+        """``thermo`` and the rows of the segment a guard halted (named in ``reason``; it left no restart)."""
+        m = re.search(r"in segment (\w+):", reason)
+        log_path = self.log_dir / f"{m[1]}.log" if m else None
+        if log_path is None or not log_path.exists():
+            return thermo
+        tail = parse_thermo(log_path)
+        return pd.concat([thermo, tail], ignore_index=True).drop_duplicates(subset="Step", keep="first") \
+            if "Step" in tail and "Step" in thermo else thermo
+
     def _stopped_by_os(self, steady, exc: OSError) -> "StoppedByOS":
         """Status ``interrupted`` naming the OS error and its path, as a signal's interruption does
         (written if the disk takes it); the error to raise, one line."""
@@ -461,7 +497,8 @@ class CaseRunner:
         if interrupted:
             status, reason = "interrupted", interrupted
         elif unstable:
-            status, reason = "unstable", unstable
+            history = overlap_history(self._with_halted(thermo, unstable)) if "halt_overlap" in unstable else ""
+            status, reason = "unstable", unstable + (f"; {history}" if history else "")
         elif n_dangerous:
             status, reason = "unstable", f"{n_dangerous} dangerous neighbour builds in the logs"
         git = git_state()

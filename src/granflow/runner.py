@@ -93,7 +93,9 @@ def overlap_history(thermo: pd.DataFrame) -> str:
         return (f"the largest overlap jumped {ov[-2]:.3g} → {ov[-1]:.3g} d_min within one thermo interval "
                 f"(t = {t[-2]:.4g}-{t[-1]:.4g}): an impact faster than the contacts' stiffness allows")
     # a steady rise: the overlap rises with time over the run (rank correlation) and has climbed from a small start
-    ranks = np.corrcoef(np.argsort(np.argsort(t)), np.argsort(np.argsort(ov)))[0, 1]
+    from scipy.stats import spearmanr
+
+    ranks = float(spearmanr(t, ov).statistic)
     if ranks > 0.9 and ov[0] < 0.25 * ov[-1]:
         return (f"the largest overlap rose steadily, {ov[0]:.3g} → {ov[-1]:.3g} d_min over t = {t[0]:.4g}-{t[-1]:.4g} "
                 f"(rank correlation with time {ranks:.2f}): one contact loaded ever harder, as a particle wedged "

@@ -37,6 +37,7 @@ import pandas as pd
 from granflow import registry
 from granflow.config import ConfigError, load_yaml
 from granflow.ladder_contrasts import RECORD, check_contrasts, contrast_checks, reference_label
+from granflow.ladder_record_pool import record_pool_checks
 from granflow.ladder_series import SeriesFit, figure, scatter_lines, series_fit, series_lines  # noqa: F401
 from granflow.scene_files import check_scene_sweep, load_scene
 from granflow.schema import PROJECT_ROOT
@@ -67,10 +68,11 @@ def load_ladder(path: Path) -> dict:
     names = [r.get("name") for r in data["rungs"] + (data.get("planned") or []) + pools + contrasts]
     for pool in pools:
         pooled = pool.get("rungs")
-        if not (isinstance(pooled, list) and len(set(pooled)) >= 2 and set(pooled) <= set(names) - {pool.get("name")}
-                and isinstance(pool.get("knob"), str)):
+        if not (isinstance(pooled, list) and len(set(pooled)) >= 2
+                and set(pooled) <= (set(names) | {RECORD}) - {pool.get("name")} and isinstance(pool.get("knob"), str)):
             raise ConfigError(f"ladder: {path}: pool {pool.get('name')!r}: rungs = {pooled!r}: allowed a list of two "
-                              f"or more rung names of this ladder, with a knob in words")
+                              f"or more rung names of this ladder (or {RECORD!r}, the committed record), with a knob "
+                              f"in words")
     check_contrasts(data, path)
     for rung in data["rungs"] + (data.get("planned") or []) + pools + contrasts:
         name = rung.get("name")
@@ -228,10 +230,12 @@ def _headline_checks(ladder: dict, base: Path, cases: dict, headlines: list) -> 
 def pool_checks(ladder: dict, pool: dict, results: Path) -> tuple[list, list[dict], str]:
     """A pool's rows: the scene's validation over the analysed cases of all its rungs at once, its headlines
     (the pool's ``headlines``, else the ladder's), their case summaries, and what it waits for ("" when every
-    rung has its cases analysed). Rungs whose cases share a name (the same sweep point) cannot be pooled."""
+    rung has its cases analysed). Rungs whose cases share a name (the same sweep point) cannot be pooled. A pool
+    with ``record`` reads the committed record's profiles beside its rungs (:mod:`granflow.ladder_record_pool`)."""
     by_name = {r["name"]: r for r in ladder["rungs"]}
     cases, missing = {}, []
-    for name in pool["rungs"]:
+    members = [name for name in pool["rungs"] if name != RECORD]
+    for name in members:
         rung = by_name.get(name)
         base = rung_cases_root(results, ladder, rung) if rung else None
         found = sorted(base.glob("**/analysis/scalars.json")) if base else []
@@ -245,7 +249,9 @@ def pool_checks(ladder: dict, pool: dict, results: Path) -> tuple[list, list[dic
             cases[case] = p.parent.parent
     if missing:
         return [], [], "waits for " + ", ".join(missing)
-    base = rung_cases_root(results, ladder, by_name[pool["rungs"][0]])
+    base = rung_cases_root(results, ladder, by_name[members[0]])
+    if RECORD in pool["rungs"]:
+        return record_pool_checks(ladder["scene"], base, cases, pool.get("headlines") or ladder["headlines"])
     return (*_headline_checks(ladder, base, cases, pool.get("headlines") or ladder["headlines"]), "")
 
 

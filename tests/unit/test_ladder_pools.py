@@ -6,6 +6,7 @@ import copy
 import json
 import math
 
+import numpy as np
 import pytest
 
 import granflow.ladder as lad
@@ -116,3 +117,71 @@ def test_a_pool_of_fewer_than_two_known_rungs_is_refused(tmp_path, rungs):
     path.write_text(text)
     with pytest.raises(ConfigError, match="pool 'W023_rates': rungs = "):
         lad.load_ladder(path)
+
+
+# -- a pool with the committed record: its profiles beside the rungs' (granflow.ladder_record_pool) -----------
+import pandas as pd  # noqa: E402
+
+import granflow.ladder_record_pool as rp  # noqa: E402
+
+
+def _bins(rate: float, a: float = 0.22, n: int = 25) -> pd.DataFrame:
+    """A case's streamwise bins: δ/d̄ = e^{-0.8 x/L} q*^a, q* falling along the heap (n bins over L)."""
+    x = (np.arange(n) + 0.5) / n
+    q = rate * (1.0 - x) * 0.15
+    return pd.DataFrame({"case": f"mix~bi1-2/mdot~{rate:g}", "x_over_L": np.round(x, 4), "q_star": q,
+                         "d_bar": 1.2e-3, "delta": 1.2e-3 * np.exp(-0.8 * x) * q ** a, "usable": True})
+
+
+@pytest.fixture
+def record_root(tmp_path, monkeypatch):
+    """A committed heap record of two feed rates and two seeds (profiles: the first seed's), and a scene
+    validation that gives each rung case's streamwise bins as its profile (two rates, the second's flowing layer
+    shorter: 19 bins)."""
+    root = tmp_path / "repo"
+    (root / "validation" / "heap" / "profiles").mkdir(parents=True)
+    pd.concat([_bins(20), _bins(33)]).to_csv(root / "validation" / "heap" / "profiles" / "streamwise.csv", index=False)
+    cases = [{"dir": f"mix~bi1-2/mdot~{r}/seed~{s}", "seed": s, "seeds": [1, 2], "cpu_hours": 1.0, "case": {}}
+             for r in (20, 33) for s in (1, 2)]
+    (root / "validation" / "heap" / "summary.json").write_text(json.dumps({"cases": cases}))
+
+    def validation(scene, base, cases):
+        rates = sorted(float(c.split("mdot~")[1]) for c in cases)
+        return ValidationResult(checks=[], profiles={"streamwise": pd.concat(
+            [_bins(r, n=25 if r < 100 else 19) for r in rates])})
+
+    monkeypatch.setattr(rp, "scene_validation", validation)
+    monkeypatch.setattr(rp, "case_summary", lambda p: {"dir": str(p), "cpu_hours": 1.5, "case": {}})
+    return root
+
+
+def test_a_pool_with_the_record_reads_its_profiles_beside_the_rungs(tmp_path, record_root):
+    cases = {"mix~bi1-2/mdot~10": tmp_path / "a", "mix~bi1-2/mdot~120": tmp_path / "b"}
+    checks, summaries, waits = rp.record_pool_checks("heap", tmp_path, cases, ["δ/d̄ ∝ q*^a across feed rates"],
+                                                     root=record_root)
+    assert waits == "" and [c.quantity for c in checks] == [QUANTITY]
+    (check,) = checks
+    # four rates 10-120 g/s, the 120's bins elsewhere in x/L: read at common x/L, the exponent is recovered
+    assert check.kind == "comparison" and "10, 20, 33, 120 g/s" in check.note
+    assert check.ours == pytest.approx(0.22, abs=2e-3) and "different x/L" in check.note
+    assert math.isfinite(check.syst) and check.syst < 2e-3
+    # the record's first seed only (the profiles' replicate), then the rungs' cases
+    assert [s["cpu_hours"] for s in summaries] == [1.0, 1.0, 1.5, 1.5]
+    assert [s["dir"] for s in summaries[:2]] == ["mix~bi1-2/mdot~20/seed~1", "mix~bi1-2/mdot~33/seed~1"]
+
+
+def test_a_pool_with_the_record_refuses_a_case_the_record_has(tmp_path, record_root):
+    with pytest.raises(ConfigError, match="mdot~33 are the record's and a rung's"):
+        rp.record_pool_checks("heap", tmp_path, {"mix~bi1-2/mdot~33": tmp_path}, [QUANTITY], root=record_root)
+
+
+def test_a_pool_with_the_record_waits_for_its_profiles(tmp_path):
+    assert rp.record_pool_checks("heap", tmp_path, {}, [QUANTITY], root=tmp_path)[2].startswith(
+        "waits for the record's profiles")
+
+
+def test_the_shipped_record_pool_waits_for_its_rungs(tmp_path):
+    shipped = lad.load_ladder(HEAP)
+    pool = next(p for p in shipped["pools"] if p["name"] == "record_rates")
+    assert pool["rungs"][0] == "record"
+    assert lad.pool_checks(shipped, pool, tmp_path)[2] == "waits for mdot10, mdot120"

@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from granflow.validation import Check
+from granflow.verdicts import systematic
 
 #: the paper's exponent (§3.3, Fig. 11), to the digits stated
 PAPER_RANGE = (0.215, 0.225)
@@ -40,43 +41,96 @@ def feed_rate_of(case: str) -> float:
     return float(m.group(1)) if m else float("nan")
 
 
+def on_grid(case: pd.DataFrame, grid: np.ndarray) -> pd.DataFrame:
+    """One case's ``ld`` = ln(δ/d̄) and ``lq`` = ln q* at the x/L points of ``grid`` (column ``bin``): its own bin
+    where one lies there, else linear between two of its usable bins that are neighbours (at most one bin width
+    apart); a grid point outside its bins, or across a gap of unusable bins, is left out."""
+    c = case.sort_values("x_over_L")
+    x = c["x_over_L"].to_numpy(float)
+    step = float(np.median(np.diff(x))) if len(x) > 1 else 0.0
+    rows = []
+    for p in grid:
+        j = int(np.searchsorted(x, p - 1e-6))
+        if j < len(x) and abs(x[j] - p) <= 1e-6:
+            w = 0.0
+        elif 0 < j < len(x) and x[j] - x[j - 1] <= 1.01 * step:
+            w = (p - x[j - 1]) / (x[j] - x[j - 1])
+        else:
+            continue
+        lo, hi = c.iloc[max(j - 1, 0)], c.iloc[j]
+        lo = hi if w == 0.0 else lo
+        rows.append({"bin": round(float(p), 3), "ld": (1 - w) * lo["ld"] + w * hi["ld"],
+                     "lq": (1 - w) * lo["lq"] + w * hi["lq"]})
+    return pd.DataFrame(rows, columns=["bin", "ld", "lq"])
+
+
+def _fit(df: pd.DataFrame, grid_of: str) -> dict | None:
+    """The fixed-effects slope over every case read at the x/L points of one case (``grid_of``); None when fewer
+    than two feed rates share a point."""
+    grid = df.loc[(df["case"] == grid_of) & (df["x_over_L"] >= MIN_X_OVER_L - 1e-9), "x_over_L"].to_numpy(float)
+    parts = [on_grid(g, grid).assign(case=name, rate=g["rate"].iloc[0]) for name, g in df.groupby("case")]
+    pts = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=["bin", "ld", "lq", "case", "rate"])
+    pts = pts[pts.groupby("bin")["rate"].transform("nunique") >= 2] if len(pts) else pts
+    rates = sorted(pts["rate"].unique()) if len(pts) else []
+    if len(rates) < 2:
+        return None
+    dq = pts["lq"] - pts.groupby("bin")["lq"].transform("mean")
+    dl = pts["ld"] - pts.groupby("bin")["ld"].transform("mean")
+    sxx = float(np.sum(dq ** 2))
+    a = float(np.sum(dq * dl) / sxx)
+    n_bins = int(pts["bin"].nunique())
+    dof = len(pts) - n_bins - 1
+    se = float(math.sqrt(np.sum((dl - a * dq) ** 2) / dof / sxx)) if dof > 0 else float("nan")
+    per_bin = pts.groupby("bin").apply(
+        lambda g: np.polyfit(g["lq"], g["ld"], 1)[0] if g["rate"].nunique() >= 2 else np.nan, include_groups=False)
+    return {"a": a, "se": se, "n_bins": n_bins, "per_bin": per_bin, "rates": rates, "lo": float(pts["bin"].min()),
+            "hi": float(pts["bin"].max())}
+
+
 def across_feed_rates(streamwise: pd.DataFrame | None) -> list[Check]:
-    """The q* exponent with one intercept per x/L bin (module docstring); [] without the columns."""
+    """The q* exponent with one intercept per x/L point (module docstring); [] without the columns.
+
+    Cases whose flowing layers differ in length (a wider feed zone) have their bins at other x/L: every case is
+    then read at the x/L of the case with the widest bins (:func:`on_grid`, linear between its neighbouring bins),
+    and the reading at the narrowest case's bins is the systematic variant (zero where all share their bins)."""
     need = {"case", "x_over_L", "delta", "d_bar", "q_star"}
     if streamwise is None or not need <= set(streamwise):
         return []
     df = streamwise.copy()
     if "usable" in df:
         df = df[df["usable"].astype(str).str.lower().isin(("true", "1", "1.0"))]
-    df = df[(df["x_over_L"] >= MIN_X_OVER_L - 1e-9) & (df["delta"] > 0) & (df["q_star"] > 0)]
-    df = df.assign(rate=df["case"].map(feed_rate_of), bin=df["x_over_L"].round(3),
+    df = df[(df["delta"] > 0) & (df["q_star"] > 0)]
+    df = df.assign(rate=df["case"].map(feed_rate_of), x_over_L=df["x_over_L"].astype(float),
                    ld=np.log(df["delta"] / df["d_bar"]), lq=np.log(df["q_star"]))
     df = df[np.isfinite(df["rate"])]
-    shared = df.groupby("bin")["rate"].transform("nunique") >= 2
-    df = df[shared]
-    rates = sorted(df["rate"].unique())
     paper = "≈ 0.22 (eleven runs of 10-120 g/s pooled at x/L ≥ 0.2)"
     source = "§3.3, Fig. 11"
-    if len(rates) < 2:
+    widths = {name: float(np.median(np.diff(np.sort(g["x_over_L"].to_numpy())))) if len(g) > 1 else 0.0
+              for name, g in df.groupby("case")}
+    fits = {} if not widths else {"coarsest": _fit(df, max(widths, key=widths.get)),
+                                  "finest": _fit(df, min(widths, key=widths.get))}
+    fit = fits.get("coarsest")
+    if fit is None:
+        rates = sorted(df.loc[df["x_over_L"] >= MIN_X_OVER_L - 1e-9, "rate"].unique())
         return [Check(QUANTITY, paper, source, float("nan"), paper_range=PAPER_RANGE, kind="diagnostic",
                       note=f"needs two feed rates at the same x/L; has {', '.join(f'{r:g}' for r in rates) or 'none'} g/s")]
-    dq = df["lq"] - df.groupby("bin")["lq"].transform("mean")
-    dl = df["ld"] - df.groupby("bin")["ld"].transform("mean")
-    sxx = float(np.sum(dq ** 2))
-    a = float(np.sum(dq * dl) / sxx)
-    n_bins = int(df["bin"].nunique())
-    dof = len(df) - n_bins - 1
-    se = float(math.sqrt(np.sum((dl - a * dq) ** 2) / dof / sxx)) if dof > 0 else float("nan")
-    per_bin = df.groupby("bin").apply(
-        lambda g: np.polyfit(g["lq"], g["ld"], 1)[0] if g["rate"].nunique() >= 2 else np.nan, include_groups=False)
+    a, se, rates, per_bin = fit["a"], fit["se"], fit["rates"], fit["per_bin"]
+    other = fits["finest"]
+    aligned = len({round(w, 4) for w in widths.values()}) == 1
+    syst, variants = (float("nan"), "") if aligned or other is None else \
+        systematic(a, {"read at the narrowest case's x/L bins": other["a"]})
     span = rates[-1] / rates[0]
     enough = len(rates) >= MIN_RATES and span >= MIN_SPAN
-    note = (f"ln(δ/d̄) on ln q* with one intercept per x/L bin, {n_bins} bins at x/L = {df['bin'].min():g}-"
-            f"{df['bin'].max():g} shared by {len(rates)} feed rates ({', '.join(f'{r:g}' for r in rates)} g/s, span "
-            f"{span:.2g}x); per-bin slopes {per_bin.min():.3f} to {per_bin.max():.3f} (median {per_bin.median():.3f}); "
-            f"error: the residuals', bins taken as independent (an underestimate). ")
+    note = (f"ln(δ/d̄) on ln q* with one intercept per x/L point, {fit['n_bins']} points at x/L = {fit['lo']:g}-"
+            f"{fit['hi']:g} shared by {len(rates)} feed rates ({', '.join(f'{r:g}' for r in rates)} g/s, span "
+            f"{span:.2g}x); per-point slopes {per_bin.min():.3f} to {per_bin.max():.3f} (median {per_bin.median():.3f}); "
+            f"error: the residuals', points taken as independent (an underestimate). ")
+    if not aligned:
+        note += ("The cases' bins lie at different x/L (flowing layers of different length): each case is read at "
+                 "the x/L of the widest bins, linear between its neighbouring bins; syst: read at the narrowest "
+                 "case's bins. ")
     note += ("A comparison: the paper's pooling over feed rates." if enough else
              f"A diagnostic until {MIN_RATES} feed rates span {MIN_SPAN:g}x (the paper's 10-120 g/s span 12x): "
              f"two rates {span:.2g}x apart leave the exponent to the noise of two δ readings per bin")
-    return [Check(QUANTITY, paper, source, a, se, paper_range=PAPER_RANGE, note=note,
+    return [Check(QUANTITY, paper, source, a, se, paper_range=PAPER_RANGE, note=note, syst=syst, variants=variants,
                   kind="comparison" if enough else "diagnostic")]

@@ -385,6 +385,9 @@ def test_heap_mixture_checks_against_known_numbers(tmp_path):
     assert alpha["mix~bi1-2/mdot~33"].verdict == "equal"
     assert alpha["mix~bi1-2/mdot~20"].paper_range is None
     assert alpha["mix~bi1-2/mdot~20"].paper.startswith("not stated")
+    steady = by_quantity(result, "change of α across the averaging window")
+    assert len(steady) == 2      # an exact plane rising steadily: its angle does not change across the window
+    assert all(abs(c.ours) < 1e-9 and not c.verdict.startswith(("differs", "not measured")) for c in steady)
     for c in by_quantity(result, "v_r /"):
         # v_r is 2 % above the prediction; an exact plane and exact feed rate leave no error
         assert_allclose(c.ours, 1.02, rtol=1e-12)

@@ -40,6 +40,7 @@ from .phi_checks import phi_checks
 from .pipeline import mixture_mean_diameter
 from .profile_checks import profile_checks
 from .shear_checks import shear_checks
+from .steadiness import alpha_change_case
 
 #: the heap scene's headline keys (``HeapScene.headline``) and, per key, the analysis's own error
 HEADLINE_FALLBACK = {"alpha": "alpha_se", "delta_over_d": None, "tail_exponent": "tail_k_se"}
@@ -183,6 +184,11 @@ def alpha_planar(case: HeapCase, middle=ALPHA_MIDDLE, frames: slice = slice(None
         g = max(1.0, statistical_inefficiency(a_t))
         se = max(se, float(np.std(a_t, ddof=1) * math.sqrt(g / len(a_t))))
     return fit.alpha_deg, se, fit.residual_std
+
+
+def alpha_change(case: HeapCase) -> Check:
+    """α's change across the averaging window over the planar middle, the other fit ranges its syst."""
+    return alpha_change_case(case, ALPHA_MIDDLE, ALPHA_MIDDLE_VARIANTS)
 
 
 def alpha_check(case: HeapCase) -> Check:
@@ -571,7 +577,7 @@ def validation(scene_dir: Path, cases: dict[str, Path]) -> ValidationResult:
     loaded = sorted((load_case(name, path) for name, path in cases.items()),
                     key=lambda c: (c.record["case"]["mixture"], c.feed_rate, c.name))
     checks = []
-    for make in (alpha_check, rise_check, delta_check, tail_checks, methods_check, deposit_check, phi_checks, gap_checks):
+    for make in (alpha_check, alpha_change, rise_check, delta_check, tail_checks, methods_check, deposit_check, phi_checks, gap_checks):
         for c in loaded:
             made = make(c)
             checks += made if isinstance(made, list) else [made]

@@ -28,6 +28,8 @@ from granflow.verdicts import systematic
 PAPER_RANGE = (0.215, 0.225)
 #: the paper's fit uses x/L ≥ 0.2
 MIN_X_OVER_L = 0.2
+#: the fit-range variants (the syst): from x/L 0.3, and up to 0.8 (without the bins next to the end wall)
+X_VARIANTS = (0.3, 0.8)
 #: a comparison needs this many feed rates ...
 MIN_RATES = 3
 #: ... spanning at least this factor (the paper's 10-120 g/s span 12)
@@ -64,10 +66,11 @@ def on_grid(case: pd.DataFrame, grid: np.ndarray) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["bin", "ld", "lq"])
 
 
-def _fit(df: pd.DataFrame, grid_of: str) -> dict | None:
-    """The fixed-effects slope over every case read at the x/L points of one case (``grid_of``); None when fewer
-    than two feed rates share a point."""
-    grid = df.loc[(df["case"] == grid_of) & (df["x_over_L"] >= MIN_X_OVER_L - 1e-9), "x_over_L"].to_numpy(float)
+def _fit(df: pd.DataFrame, grid_of: str, lo: float = MIN_X_OVER_L, hi: float = math.inf) -> dict | None:
+    """The fixed-effects slope over every case read at the x/L points of one case (``grid_of``) from ``lo`` to
+    ``hi``; None when fewer than two feed rates share a point."""
+    at = df.loc[df["case"] == grid_of, "x_over_L"]
+    grid = at[(at >= lo - 1e-9) & (at <= hi + 1e-9)].to_numpy(float)
     parts = [on_grid(g, grid).assign(case=name, rate=g["rate"].iloc[0]) for name, g in df.groupby("case")]
     pts = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=["bin", "ld", "lq", "case", "rate"])
     pts = pts[pts.groupby("bin")["rate"].transform("nunique") >= 2] if len(pts) else pts
@@ -92,43 +95,50 @@ def across_feed_rates(streamwise: pd.DataFrame | None) -> list[Check]:
 
     Cases whose flowing layers differ in length (a wider feed zone) have their bins at other x/L: every case is
     then read at the x/L of the case with the widest bins (:func:`on_grid`, linear between its neighbouring bins),
-    and the reading at the narrowest case's bins is the systematic variant (zero where all share their bins)."""
+    and the reading at the narrowest case's bins is one more systematic variant beside the x/L range and δ's
+    methods."""
     need = {"case", "x_over_L", "delta", "d_bar", "q_star"}
     if streamwise is None or not need <= set(streamwise):
         return []
     df = streamwise.copy()
     if "usable" in df:
         df = df[df["usable"].astype(str).str.lower().isin(("true", "1", "1.0"))]
-    df = df[(df["delta"] > 0) & (df["q_star"] > 0)]
-    df = df.assign(rate=df["case"].map(feed_rate_of), x_over_L=df["x_over_L"].astype(float),
-                   ld=np.log(df["delta"] / df["d_bar"]), lq=np.log(df["q_star"]))
+    df = df[(df["q_star"] > 0)].assign(rate=df["case"].map(feed_rate_of), x_over_L=df["x_over_L"].astype(float),
+                                        lq=np.log(df["q_star"]))
     df = df[np.isfinite(df["rate"])]
+    # δ by the paper's other two methods (Fig. 6d), where the profile has them: a systematic variant each
+    by_method = {c: df[df[c] > 0].assign(ld=np.log(df[c] / df["d_bar"])) for c in ("delta_exp", "delta_lin") if c in df}
+    df = df[df["delta"] > 0].assign(ld=np.log(df["delta"] / df["d_bar"]))
     paper = "≈ 0.22 (eleven runs of 10-120 g/s pooled at x/L ≥ 0.2)"
     source = "§3.3, Fig. 11"
     widths = {name: float(np.median(np.diff(np.sort(g["x_over_L"].to_numpy())))) if len(g) > 1 else 0.0
               for name, g in df.groupby("case")}
-    fits = {} if not widths else {"coarsest": _fit(df, max(widths, key=widths.get)),
-                                  "finest": _fit(df, min(widths, key=widths.get))}
-    fit = fits.get("coarsest")
+    coarsest = max(widths, key=widths.get) if widths else None
+    fit = _fit(df, coarsest) if widths else None
     if fit is None:
         rates = sorted(df.loc[df["x_over_L"] >= MIN_X_OVER_L - 1e-9, "rate"].unique())
         return [Check(QUANTITY, paper, source, float("nan"), paper_range=PAPER_RANGE, kind="diagnostic",
                       note=f"needs two feed rates at the same x/L; has {', '.join(f'{r:g}' for r in rates) or 'none'} g/s")]
     a, se, rates, per_bin = fit["a"], fit["se"], fit["rates"], fit["per_bin"]
-    other = fits["finest"]
     aligned = len({round(w, 4) for w in widths.values()}) == 1
-    syst, variants = (float("nan"), "") if aligned or other is None else \
-        systematic(a, {"read at the narrowest case's x/L bins": other["a"]})
+    alt = {f"x/L ≥ {X_VARIANTS[0]:g}": _fit(df, coarsest, lo=X_VARIANTS[0]),
+           f"x/L {MIN_X_OVER_L:g}-{X_VARIANTS[1]:g} (the end wall's bins left out)": _fit(df, coarsest, hi=X_VARIANTS[1])}
+    alt.update({f"δ by {c}": _fit(d, coarsest) for c, d in by_method.items()})
+    if not aligned:
+        alt["read at the narrowest case's x/L bins"] = _fit(df, min(widths, key=widths.get))
+    subsets = {f"x/L ≥ {X_VARIANTS[0]:g}", f"x/L {MIN_X_OVER_L:g}-{X_VARIANTS[1]:g} (the end wall's bins left out)"}
+    syst, variants = systematic(a, {k: ((v["a"], v["se"]) if k in subsets else v["a"]) for k, v in alt.items()
+                                    if v is not None}, central_se=se)
     span = rates[-1] / rates[0]
     enough = len(rates) >= MIN_RATES and span >= MIN_SPAN
     note = (f"ln(δ/d̄) on ln q* with one intercept per x/L point, {fit['n_bins']} points at x/L = {fit['lo']:g}-"
             f"{fit['hi']:g} shared by {len(rates)} feed rates ({', '.join(f'{r:g}' for r in rates)} g/s, span "
             f"{span:.2g}x); per-point slopes {per_bin.min():.3f} to {per_bin.max():.3f} (median {per_bin.median():.3f}); "
             f"error: the residuals', points taken as independent (an underestimate). ")
-    if not aligned:
-        note += ("The cases' bins lie at different x/L (flowing layers of different length): each case is read at "
-                 "the x/L of the widest bins, linear between its neighbouring bins; syst: read at the narrowest "
-                 "case's bins. ")
+    note += "Syst: the x/L range, δ by the paper's other two methods"
+    note += ("; the cases' bins lie at different x/L (flowing layers of different length): each case is read at "
+             "the x/L of the widest bins, linear between its neighbouring bins, and at the narrowest case's bins "
+             "for the syst. " if not aligned else ". ")
     note += ("A comparison: the paper's pooling over feed rates." if enough else
              f"A diagnostic until {MIN_RATES} feed rates span {MIN_SPAN:g}x (the paper's 10-120 g/s span 12x): "
              f"two rates {span:.2g}x apart leave the exponent to the noise of two δ readings per bin")

@@ -22,7 +22,7 @@ from postproc.autocorr import statistical_inefficiency
 import granflow.scenes.heap.analysis as hp
 from granflow.validation import Check, systematic
 
-QUANTITY = "change of α across the averaging window (the dynamic angle of repose in the steady state)"
+QUANTITY = "change of α across the averaging window (steady filling: α nearly constant)"
 #: the paper's α is steady to within its variation in time (§3.1), degrees
 PAPER_VARIATION = 0.07
 

@@ -295,7 +295,8 @@ def test_each_committed_ladder_shows_its_measured_rung_nearest_the_papers_setup(
         assert overview.VALIDATION_CASE in picks[ladder["rungs"][0]["name"]]
         best = min(measured, key=lambda r: r["abs_rel_difference"])
         if best["rung"] != nearest["rung"]:
-            assert overview.BEST_AGREEMENT in picks[best["rung"]] and order[best["rung"]] > order[nearest["rung"]]
+            # never nearer the paper's setup than the nearest; as near (a tie of from_paper): the file's first wins
+            assert overview.BEST_AGREEMENT in picks[best["rung"]] and order[best["rung"]] >= order[nearest["rung"]]
 
 
 # ------------------------------------------------------------------ the README's picture of the page

@@ -121,14 +121,14 @@ def across_feed_rates(streamwise: pd.DataFrame | None) -> list[Check]:
                       note=f"needs two feed rates at the same x/L; has {', '.join(f'{r:g}' for r in rates) or 'none'} g/s")]
     a, se, rates, per_bin = fit["a"], fit["se"], fit["rates"], fit["per_bin"]
     aligned = len({round(w, 4) for w in widths.values()}) == 1
-    alt = {f"x/L ≥ {X_VARIANTS[0]:g}": _fit(df, coarsest, lo=X_VARIANTS[0]),
-           f"x/L {MIN_X_OVER_L:g}-{X_VARIANTS[1]:g} (the end wall's bins left out)": _fit(df, coarsest, hi=X_VARIANTS[1])}
-    alt.update({f"δ by {c}": _fit(d, coarsest) for c, d in by_method.items()})
+    # the x/L ranges read subsets of the same points: (value, se), so only their shift beyond their statistics counts
+    ranges = {f"x/L ≥ {X_VARIANTS[0]:g}": _fit(df, coarsest, lo=X_VARIANTS[0]),
+              f"x/L {MIN_X_OVER_L:g}-{X_VARIANTS[1]:g} (the end wall's bins left out)": _fit(df, coarsest, hi=X_VARIANTS[1])}
+    others = {f"δ by {c}": _fit(d, coarsest) for c, d in by_method.items()}
     if not aligned:
-        alt["read at the narrowest case's x/L bins"] = _fit(df, min(widths, key=widths.get))
-    subsets = {f"x/L ≥ {X_VARIANTS[0]:g}", f"x/L {MIN_X_OVER_L:g}-{X_VARIANTS[1]:g} (the end wall's bins left out)"}
-    syst, variants = systematic(a, {k: ((v["a"], v["se"]) if k in subsets else v["a"]) for k, v in alt.items()
-                                    if v is not None}, central_se=se)
+        others["read at the narrowest case's x/L bins"] = _fit(df, min(widths, key=widths.get))
+    alt = {**{k: (v["a"], v["se"]) for k, v in ranges.items() if v}, **{k: v["a"] for k, v in others.items() if v}}
+    syst, variants = systematic(a, alt, central_se=se)
     span = rates[-1] / rates[0]
     enough = len(rates) >= MIN_RATES and span >= MIN_SPAN
     note = (f"ln(δ/d̄) on ln q* with one intercept per x/L point, {fit['n_bins']} points at x/L = {fit['lo']:g}-"

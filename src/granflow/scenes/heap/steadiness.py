@@ -14,10 +14,10 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pandas as pd
 
 from postproc.autocorr import statistical_inefficiency
+from postproc.series import linear_fit
 
 import granflow.scenes.heap.analysis as hp
 from granflow.validation import Check, systematic
@@ -34,14 +34,10 @@ def change_across(alpha_t: pd.DataFrame) -> tuple[float, float, int]:
     if len(d) < 4:
         return float("nan"), float("nan"), len(d)
     t, a = d["t"].to_numpy(), d["alpha_deg"].to_numpy()
+    slope, intercept, se, _ = linear_fit(t, a)
+    g = max(1.0, statistical_inefficiency(a - (slope * t + intercept)))
     span = float(t[-1] - t[0])
-    dt = t - t.mean()
-    sxx = float(np.sum(dt ** 2))
-    slope = float(np.sum(dt * (a - a.mean())) / sxx)
-    resid = a - a.mean() - slope * dt
-    g = max(1.0, statistical_inefficiency(resid))
-    se = math.sqrt(float(np.sum(resid ** 2)) / (len(a) - 2) / sxx * g)
-    return slope * span, se * span, len(a)
+    return slope * span, se * math.sqrt(g) * span, len(a)
 
 
 def alpha_change_check(case: str, nominal: pd.DataFrame | None, variants: dict[str, pd.DataFrame],

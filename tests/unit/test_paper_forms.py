@@ -74,3 +74,18 @@ def test_qstar_two_close_rates_are_a_diagnostic():
     (check,) = across_feed_rates(_streamwise([20, 33], noise=0.03))
     assert check.kind == "diagnostic" and "no verdict" in check.verdict and "span 1.6x" in check.note
     assert feed_rate_of("mix~bi1-2/mdot~33") == 33.0 and math.isnan(feed_rate_of("R~6"))
+
+
+def test_feed_rates_meet_at_the_same_x_over_L_whatever_digits_each_side_keeps():
+    # the record keeps its profiles at 6 digits, a run gives every digit: a case of each must meet at every bin
+    from granflow.schema import PROJECT_ROOT
+    from granflow.scenes.heap.profile_checks import feed_rate_checks
+
+    where = PROJECT_ROOT / "validation" / "heap" / "profiles"
+    sw, col = pd.read_csv(where / "streamwise.csv"), pd.read_csv(where / "collapse.csv")
+    low = sw["case"] == sorted(sw["case"].unique(), key=feed_rate_of)[0]
+    digits = sw.assign(x_over_L=np.where(low, sw["x_over_L"] + 3e-7, sw["x_over_L"]))   # beyond the 6th digit
+    kept, run = feed_rate_checks(sw, col), feed_rate_checks(digits, col)
+    assert [c.quantity for c in run] == [c.quantity for c in kept] and len(run) == 3
+    for a, b in zip(kept, run):
+        assert math.isfinite(a.ours) and b.ours == pytest.approx(a.ours, rel=1e-9) and b.note == a.note

@@ -427,7 +427,8 @@ def feed_rate_checks(sw: pd.DataFrame, col: pd.DataFrame) -> list[Check]:
     if not pairs:
         return [Check(q, p, s, NAN, paper_range=r, note="needs two feed rates of one mixture") for q, p, s, r in rows]
     lo, hi = pairs[0]
-    a, b = sw[sw["case"] == lo], sw[sw["case"] == hi]
+    # bins at the same x/L: as the record keeps them (6 digits) and as a run gives them (every digit) they meet at 5
+    a, b = (sw[sw["case"] == c].assign(x_over_L=lambda d: d["x_over_L"].round(5)) for c in (lo, hi))
     q0 = {c: line_at(d, "q", 0.0) for c, d in ((lo, a), (hi, b))}
 
     both = a.merge(b, on="x_over_L", suffixes=("_lo", "_hi"))

@@ -37,7 +37,7 @@ import pandas as pd
 from granflow import registry
 from granflow.config import ConfigError, load_yaml
 from granflow.ladder_contrasts import RECORD, check_contrasts, contrast_checks, reference_label
-from granflow.ladder_record_pool import record_pool_checks
+from granflow.ladder_record_pool import committed_pool_checks, keep_pooled, kept_pooled, record_pool_checks
 from granflow.ladder_series import SeriesFit, figure, scatter_lines, series_fit, series_lines  # noqa: F401
 from granflow.scene_files import check_scene_sweep, load_scene
 from granflow.schema import PROJECT_ROOT
@@ -227,32 +227,58 @@ def _headline_checks(ladder: dict, base: Path, cases: dict, headlines: list) -> 
     return keep, [case_summary(p) for p in cases.values()]
 
 
-def pool_checks(ladder: dict, pool: dict, results: Path) -> tuple[list, list[dict], str]:
+def _at_hand(ladder: dict, rung: dict | None, results: Path) -> tuple[Path | None, dict[str, Path], bool]:
+    """(where the rung's cases are, its analysed cases by name, whether every case of its sweep is analysed)."""
+    base = rung_cases_root(results, ladder, rung) if rung else None
+    found = {str(p.parent.parent.relative_to(base)): p.parent.parent
+             for p in sorted(base.glob("**/analysis/scalars.json"))} if base else {}
+    return base, found, bool(rung) and len(found) >= math.prod(len(v) for v in rung_sweep(ladder, rung).values())
+
+
+def pool_checks(ladder: dict, pool: dict, results: Path, root: Path = ROOT) -> tuple[list, list[dict], str]:
     """A pool's rows: the scene's validation over the analysed cases of all its rungs at once, its headlines
     (the pool's ``headlines``, else the ladder's), their case summaries, and what it waits for ("" when every
     rung has its cases analysed). Rungs whose cases share a name (the same sweep point) cannot be pooled. A pool
-    with ``record`` reads the committed record's profiles beside its rungs (:mod:`granflow.ladder_record_pool`)."""
+    with ``record`` reads the committed record's profiles beside its rungs, and a rung whose runs are not at hand
+    the profiles the committed record kept of it (``validation/<scene>/pooled/<rung>/``): then the rows are the
+    scene's profile checks over them all (:mod:`granflow.ladder_record_pool`)."""
     by_name = {r["name"]: r for r in ladder["rungs"]}
-    cases, missing = {}, []
+    cases, missing, kept = {}, [], {}
     members = [name for name in pool["rungs"] if name != RECORD]
     for name in members:
-        rung = by_name.get(name)
-        base = rung_cases_root(results, ladder, rung) if rung else None
-        found = sorted(base.glob("**/analysis/scalars.json")) if base else []
-        if len(found) < (math.prod(len(v) for v in rung_sweep(ladder, rung).values()) if rung else 1):
-            missing.append(name)
-        for p in found:
-            case = str(p.parent.parent.relative_to(base))
+        _, found, complete = _at_hand(ladder, by_name.get(name), results)
+        if not complete:
+            if (committed := kept_pooled(ladder["scene"], name, root)) is None:
+                missing.append(name)
+            else:
+                kept[f"{name}'s kept profiles"] = committed
+            continue
+        for case, path in found.items():
             if case in cases:
                 raise ConfigError(f"ladder {ladder['scene']}: pool {pool['name']!r}: case {case!r} is in two of its "
                                   f"rungs: allowed rungs whose cases differ (each its own sweep point)")
-            cases[case] = p.parent.parent
+            cases[case] = path
     if missing:
         return [], [], "waits for " + ", ".join(missing)
     base = rung_cases_root(results, ladder, by_name[members[0]])
+    headlines = pool.get("headlines") or ladder["headlines"]
     if RECORD in pool["rungs"]:
-        return record_pool_checks(ladder["scene"], base, cases, pool.get("headlines") or ladder["headlines"])
-    return (*_headline_checks(ladder, base, cases, pool.get("headlines") or ladder["headlines"]), "")
+        return record_pool_checks(ladder["scene"], base, cases, headlines, root, kept)
+    if kept:
+        return (*committed_pool_checks(ladder["scene"], base, cases, headlines, kept), "")
+    return (*_headline_checks(ladder, base, cases, headlines), "")
+
+
+def keep_pooled_rungs(ladder: dict, results: Path, out: Path) -> list[str]:
+    """Keep in the record (``<out>/pooled/<rung>/``, :func:`~granflow.ladder_record_pool.keep_pooled`) the
+    profiles of every rung a pool reads whose cases are all analysed under ``results``; returns their names."""
+    by_name, kept = {r["name"]: r for r in ladder["rungs"]}, []
+    for name in dict.fromkeys(n for pool in ladder.get("pools") or [] for n in pool["rungs"] if n != RECORD):
+        base, found, complete = _at_hand(ladder, by_name.get(name), results)
+        if complete:
+            keep_pooled(ladder["scene"], name, base, found, out)
+            kept.append(name)
+    return kept
 
 
 def _kept_checks(ladder: dict, rung: dict, quantities: list) -> list:
@@ -430,7 +456,7 @@ def committed_rows(ladder: dict, rung: dict, path: Path | None = None) -> list[d
     return [{k: v for k, v in r.items() if k != "from_paper"} for r in mine.to_dict("records")]
 
 
-def table(ladder: dict, results: Path, keep_committed: bool = False) -> pd.DataFrame:
+def table(ladder: dict, results: Path, keep_committed: bool = False, root: Path = ROOT) -> pd.DataFrame:
     """Every rung's headline rows: measured from its analysed cases under ``results``; the base rung from the
     committed record when its runs are absent; with ``keep_committed``, any other rung without runs from the
     committed ladder.csv (:func:`committed_rows`); planned rungs priced."""
@@ -464,7 +490,7 @@ def table(ladder: dict, results: Path, keep_committed: bool = False) -> pd.DataF
             state = f"run ({len(ended)} of {len(cases)} cases not measured: {lost})"
         rows += _rows(rung, state, checks, cases, cpu)
     for pool in ladder.get("pools") or []:
-        checks, cases, waits = pool_checks(ladder, pool, results)
+        checks, cases, waits = pool_checks(ladder, pool, results, root)
         if not checks and keep_committed and (kept := committed_rows(ladder, pool)):
             rows += kept
         elif not checks:
@@ -535,8 +561,9 @@ def record(ladder: dict, results: Path, out: Path, keep_committed: bool = False)
     ``ladder.md`` and ``figures/ladder.png`` (the workflow's rule ``ladder_record``; ``tools/ladder.py record``).
     With ``keep_committed``, a rung without runs keeps its committed rows (:func:`committed_rows`).
     Returns the markdown."""
-    df = table(ladder, results, keep_committed)
     out = Path(out)
+    keep_pooled_rungs(ladder, results, out)
+    df = table(ladder, results, keep_committed)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     df.to_csv(out / "ladder.csv", index=False, float_format="%.9g")   # enough digits that a verdict judged again from the file reads alike
     text = markdown(df, ladder)

@@ -11,7 +11,7 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
-from granflow.validation import format_with_errors
+from granflow.validation import copy_figure, format_with_errors
 
 
 #: panels per row of the ladder's figure (a ladder with pools has more headlines than fit on one row)
@@ -53,7 +53,11 @@ def figure(df: pd.DataFrame, ladder: dict, path: Path) -> None:
                                "(bars: stat ⊕ syst) against cost", 70), fontsize=9)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    full = path.with_name(f".{path.name}.full.png")
+    fig.savefig(full, dpi=110)
+    plt.close(fig)
+    copy_figure(full, path)   # as the record's figures: a 256-colour palette, ~3x smaller
+    full.unlink()
 
 
 def scatter_lines(df: pd.DataFrame, ladder: dict) -> str:

@@ -219,8 +219,9 @@ def _clean(value):
 
 
 #: files of ``validation/<scene>/`` written by another rule (``ladder_record``, :mod:`granflow.ladder`) that a rewrite of the
-#: record keeps: the ladder is measured on other runs than the record's cases
-KEPT_FILES = ("ladder.csv", "ladder.md", "figures/ladder.png")
+#: record keeps: the ladder, and the profiles its pools read (``pooled/``, a directory kept whole), are measured on
+#: other runs than the record's cases
+KEPT_FILES = ("ladder.csv", "ladder.md", "figures/ladder.png", "pooled")
 
 
 def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs: dict[str, Path],
@@ -238,13 +239,15 @@ def write_record(scene_name: str, rung: str, result: ValidationResult, case_dirs
     files = record_git["dirty_files"]
     record_dirty = ([f for f in files if not f.startswith("validation/")] if isinstance(files, list)
                     else record_git["dirty"])
-    kept = {name: (out / name).read_bytes() for name in KEPT_FILES if (out / name).is_file()}
+    kept = {str(f.relative_to(out)): f.read_bytes() for name in KEPT_FILES
+            for f in ([out / name] if (out / name).is_file() else sorted((out / name).rglob("*"))) if f.is_file()}
     if out.exists():
         shutil.rmtree(out)
     (out / "profiles").mkdir(parents=True)
     (out / "figures").mkdir()
     (out / "logs").mkdir()
     for name, data in kept.items():
+        (out / name).parent.mkdir(parents=True, exist_ok=True)
         (out / name).write_bytes(data)
     cases = [dict(dir=rel, **case_summary(Path(path))) for rel, path in case_dirs.items()]
     for c in cases:  # each run's seed, and every seed its case ran from (the replicates)

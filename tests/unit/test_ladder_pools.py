@@ -93,13 +93,14 @@ def test_rejudge_keeps_a_rows_own_kind(tmp_path, ladder, seen):
 def test_a_pool_waits_for_a_rung_without_its_cases(tmp_path, ladder, seen):
     analysed(tmp_path, ladder, "W023", "mix~bi1-2/mdot~33")
     analysed(tmp_path, ladder, "mdot120_W023", "mix~bi1-2/mdot~120")
-    checks, _, waits = lad.pool_checks(ladder, pool_of(ladder), tmp_path)
+    # root: a record that kept no rung's profiles
+    checks, _, waits = lad.pool_checks(ladder, pool_of(ladder), tmp_path, root=tmp_path)
     assert checks == [] and waits == "waits for mdot10_W023"
-    row = lad.table(ladder, tmp_path).set_index("rung").loc["W023_rates"]
+    row = lad.table(ladder, tmp_path, root=tmp_path).set_index("rung").loc["W023_rates"]
     assert row["state"] == "not run (waits for mdot10_W023)"
-    # the shipped ladder without that rung's runs: its pool waits for it too
+    # the shipped ladder without that rung's runs or kept profiles: its pool waits for it too
     shipped = lad.load_ladder(HEAP)
-    assert lad.pool_checks(shipped, pool_of(shipped), tmp_path)[2] == "waits for mdot10_W023"
+    assert lad.pool_checks(shipped, pool_of(shipped), tmp_path, root=tmp_path)[2] == "waits for mdot10_W023"
 
 
 def test_rungs_sharing_a_case_cannot_be_pooled(tmp_path, ladder, seen):
@@ -171,7 +172,7 @@ def test_a_pool_with_the_record_reads_its_profiles_beside_the_rungs(tmp_path, re
 
 
 def test_a_pool_with_the_record_refuses_a_case_the_record_has(tmp_path, record_root):
-    with pytest.raises(ConfigError, match="mdot~33 are the record's and a rung's"):
+    with pytest.raises(ConfigError, match="mdot~33 are in the record and in the rungs at hand"):
         rp.record_pool_checks("heap", tmp_path, {"mix~bi1-2/mdot~33": tmp_path}, [QUANTITY], root=record_root)
 
 
@@ -184,4 +185,79 @@ def test_the_shipped_record_pool_waits_for_its_rungs(tmp_path):
     shipped = lad.load_ladder(HEAP)
     pool = next(p for p in shipped["pools"] if p["name"] == "record_rates")
     assert pool["rungs"][0] == "record"
-    assert lad.pool_checks(shipped, pool, tmp_path)[2] == "waits for mdot10"
+    assert lad.pool_checks(shipped, pool, tmp_path, root=tmp_path)[2] == "waits for mdot10"
+
+
+def _kept(record_root, monkeypatch, rung: str, rate: float, seed_note: str = "") -> Path:
+    """Keep a rung of one feed rate in the record at ``record_root`` as recording the ladder does."""
+    monkeypatch.setattr(rp, "scene_validation", lambda scene, base, cases: ValidationResult(
+        checks=[], profiles={"streamwise": _bins(rate), "empty": pd.DataFrame({"case": []})}))
+    monkeypatch.setattr(rp, "case_summary", lambda p: {"cpu_hours": 2.0, "note": seed_note, "wall_hours": math.nan})
+    return rp.keep_pooled("heap", rung, record_root, {f"mix~bi1-2/mdot~{rate:g}": record_root},
+                          record_root / "validation" / "heap")
+
+
+def test_a_pooled_rungs_profiles_are_kept_whole_and_read_back(record_root, monkeypatch):
+    where = _kept(record_root, monkeypatch, "mdot10_W023", 10)
+    assert where == record_root / "validation" / "heap" / rp.POOLED / "mdot10_W023"
+    first = {p.name: p.read_bytes() for p in where.iterdir()}
+    assert set(first) == {"streamwise.csv.gz", "empty.csv.gz", "cases.json"}
+    profiles, cases = rp.kept_pooled("heap", "mdot10_W023", record_root)
+    assert np.allclose(profiles["streamwise"]["delta"], _bins(10)["delta"], rtol=1e-5)   # 6 digits, as the record's
+    assert cases == [{"dir": "mix~bi1-2/mdot~10", "cpu_hours": 2.0, "note": "", "wall_hours": None}]
+    # kept again: the same bytes (no time stamp in the gzip); a new keep replaces the directory whole
+    assert {p.name: p.read_bytes() for p in _kept(record_root, monkeypatch, "mdot10_W023", 10).iterdir()} == first
+    _kept(record_root, monkeypatch, "mdot10_W023", 12, seed_note="again")
+    assert rp.kept_pooled("heap", "mdot10_W023", record_root)[1][0]["note"] == "again"
+    assert sorted(p.name for p in where.parent.iterdir()) == ["mdot10_W023"]      # no partial or old copy left
+    assert rp.kept_pooled("heap", "nowhere", record_root) is None
+
+
+def test_a_pool_reads_a_rung_without_its_runs_from_its_kept_profiles(tmp_path, ladder, record_root, monkeypatch):
+    _kept(record_root, monkeypatch, "mdot10_W023", 10)
+    monkeypatch.setattr(rp, "scene_validation", lambda scene, base, cases: ValidationResult(checks=[], profiles={
+        "streamwise": pd.concat([_bins(float(c.split("mdot~")[1])) for c in sorted(cases)])}))
+    monkeypatch.setattr(rp, "case_summary", lambda p: {"dir": str(p), "cpu_hours": 1.5})
+    analysed(tmp_path, ladder, "W023", "mix~bi1-2/mdot~33")
+    analysed(tmp_path, ladder, "mdot120_W023", "mix~bi1-2/mdot~120")
+    checks, cases, waits = lad.pool_checks(ladder, pool_of(ladder), tmp_path, root=record_root)
+    assert waits == "" and [c.quantity for c in checks] == [QUANTITY]
+    # three rates 10-120 g/s, the 10 g/s from the committed profiles: the exponent is recovered
+    assert "10, 33, 120 g/s" in checks[0].note and checks[0].ours == pytest.approx(0.22, abs=2e-3)
+    assert sorted(c["cpu_hours"] for c in cases) == [1.5, 1.5, 2.0]
+    # the kept rung and a rung at hand with the same sweep point: refused, naming both
+    analysed(tmp_path, ladder, "mdot10_W023", "mix~bi1-2/mdot~10")
+    ladder["pools"][0]["rungs"] = ["W023", "mdot10_W023", "mdot120_W023"]
+    monkeypatch.setattr(lad, "kept_pooled", lambda scene, rung, root: rp.kept_pooled(scene, "mdot10_W023", root)
+                        if rung == "mdot120_W023" else None)
+    (lad.rung_cases_root(tmp_path, ladder, ladder["rungs"][[r["name"] for r in ladder["rungs"]].index(
+        "mdot120_W023")]) / "mix~bi1-2/mdot~120/analysis/scalars.json").unlink()
+    with pytest.raises(ConfigError, match="mdot~10 are in mdot120_W023's kept profiles and in the rungs at hand"):
+        lad.pool_checks(ladder, pool_of(ladder), tmp_path, root=record_root)
+
+
+def test_a_record_written_again_keeps_the_pooled_profiles(record_root, monkeypatch):
+    from granflow import validation
+
+    where = _kept(record_root, monkeypatch, "mdot10", 10)
+    assert "pooled" in validation.KEPT_FILES
+    out = record_root / "validation" / "heap"
+    kept = {p.relative_to(out) for p in where.rglob("*")}
+    # write_record's own keep step: everything else under out is replaced
+    monkeypatch.setattr(validation.provenance, "git_state", lambda: {"commit": "abc", "dirty_files": [], "dirty": False})
+    validation.write_record("heap", "validation", ValidationResult(checks=[]), {}, record_root, out)
+    assert not (out / "profiles" / "streamwise.csv").exists()        # the record's own files: replaced
+    assert {p.relative_to(out) for p in (out / "pooled").rglob("*") if p.is_file()} == kept
+
+
+def test_the_shipped_record_pool_reads_its_rung_from_the_kept_profiles_as_recorded(tmp_path):
+    # no runs at hand: the record's profiles and mdot10's kept ones give the pool's rows, the numbers its
+    # ladder.csv rows were recorded with from the runs (the kept tables hold 6 digits)
+    shipped = lad.load_ladder(HEAP)
+    pool = next(p for p in shipped["pools"] if p["name"] == "record_rates")
+    checks, cases, waits = lad.pool_checks(shipped, pool, tmp_path)
+    assert waits == "" and len(checks) == len(pool["headlines"])
+    rows = pd.read_csv(PROJECT_ROOT / "validation" / "heap" / "ladder.csv").query("rung == 'record_rates'")
+    recorded = dict(zip(rows["quantity"], rows["ours"]))
+    assert {c.quantity: c.ours for c in checks} == pytest.approx(recorded, rel=1e-4)
+    assert sum(c["cpu_hours"] for c in cases) == pytest.approx(rows["cpu_hours"].iloc[0], rel=1e-6)

@@ -4,8 +4,8 @@ The numbers stay as measured; what changes is how they are judged: each check ta
 kind (:attr:`~granflow.scene_base.Scene.check_kinds`) and today's verdict
 (:func:`granflow.verdicts.verdict`: kinds, ``not resolved``, ``differs`` only with replicates), the
 checks the scene makes from the record's own profiles (:meth:`Scene.profile_checks`, e.g. the silo's
-v_c² linearity from ``profiles/sweep.csv``) are made again by the same code, and each case names its
-seed. ``summary.json`` says so under ``rejudged`` (commit, date, what was done); ``checks.csv`` is
+v_c² linearity from ``profiles/sweep.csv``) are made again by the same code (but those the record pooled
+over replicates: its profiles are the first replicate's), and each case names its seed. ``summary.json`` says so under ``rejudged`` (commit, date, what was done); ``checks.csv`` is
 rewritten. Everything else of the record (profiles, figures, logs) is left as it is.
 """
 from __future__ import annotations
@@ -22,7 +22,8 @@ from .validation import Check, _clean
 
 #: what a rejudged record says it is
 HOW = ("judged again without rerunning: the numbers as measured at the record's commits, each check's kind "
-       "and verdict by the rules of the commit named here, the profile checks recomputed from profiles/")
+       "and verdict by the rules of the commit named here, the profile checks recomputed from profiles/ (but "
+       "those pooled over replicates, kept as measured: profiles/ holds the first replicate's)")
 
 
 def _check(entry: dict, kinds: dict[str, str]) -> Check:
@@ -45,7 +46,10 @@ def rejudge(folder: Path, scene_name: str) -> dict:
     scene = registry.get(scene_name)
     summary = json.loads((folder / "summary.json").read_text())
     profiles = {p.stem: pd.read_csv(p) for p in sorted((folder / "profiles").glob("*.csv"))}
-    remade = scene.profile_checks(profiles)
+    # the profiles are the first replicate's: a row the record pooled over replicates (its run-to-run scatter
+    # among them) is not made again from one, but kept as measured and judged by today's rules
+    pooled = {c["quantity"] for c in summary["checks"] if int(c.get("n_replicates") or 1) > 1}
+    remade = [c for c in scene.profile_checks(profiles) if c.quantity not in pooled]
     names = {c.quantity for c in remade}
     checks = [_check(c, scene.check_kinds) for c in summary["checks"] if c["quantity"] not in names]
     checks += [_check(asdict(c), scene.check_kinds) for c in remade]

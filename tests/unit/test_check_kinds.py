@@ -58,3 +58,25 @@ def test_rejudging_a_record_twice_changes_nothing(root, tmp_path):
         assert json.dumps(first["checks"], sort_keys=True) == json.dumps(second["checks"], sort_keys=True)
         assert (tmp_path / name / "checks.csv").read_text().splitlines()[0].endswith(
             "kind,run_to_run,n_replicates,verdict,difference")
+
+
+def test_rejudging_keeps_the_rows_the_record_pooled_over_replicates(root, tmp_path):
+    # the heap record's q* exponent across its feed rates pooled two seeds; profiles/ holds the first seed's
+    # only, whose exponent differs: judged again, the row keeps both seeds' number and its run-to-run scatter
+    import json
+    import shutil
+
+    from granflow import registry
+    from granflow.rejudge import rejudge
+
+    shutil.copytree(root / "validation" / "heap", tmp_path / "heap")
+    before = {c["quantity"]: c for c in json.loads((tmp_path / "heap" / "summary.json").read_text())["checks"]}
+    pooled = {q: c for q, c in before.items() if int(c.get("n_replicates") or 1) > 1}
+    profiles = {p.stem: pd.read_csv(p) for p in sorted((tmp_path / "heap" / "profiles").glob("*.csv"))}
+    first_seed = {c.quantity: c.ours for c in registry.get("heap").profile_checks(profiles)}
+    moved = [q for q in pooled if q in first_seed and abs(first_seed[q] - pooled[q]["ours"]) > 1e-6]
+    assert moved, "no pooled profile row that one seed's profiles read otherwise: the test tests nothing"
+    after = {c["quantity"]: c for c in rejudge(tmp_path / "heap", "heap")["checks"]}
+    for q in moved:
+        assert after[q]["ours"] == pooled[q]["ours"] and after[q]["n_replicates"] == pooled[q]["n_replicates"]
+        assert after[q]["run_to_run"] == pooled[q]["run_to_run"]

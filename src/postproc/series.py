@@ -25,7 +25,7 @@ from typing import Iterable
 import numpy as np
 import pandas as pd
 
-from .autocorr import combined_error, mean_error
+from .autocorr import combined_error, mean_error, statistical_inefficiency
 from .series_steady import (BAND_OVER_SCATTER, SteadyWindow, block_size,  # noqa: F401 (re-exported)
                             check_series, longest_band_run, running_median, scatter, steady_window)
 
@@ -70,6 +70,37 @@ def linear_fit(x, y) -> tuple[float, float, float, float]:
         return slope, intercept, np.nan, float(xm)
     resid = y - (slope * x + intercept)
     return slope, intercept, float(np.sqrt(np.sum(resid ** 2) / (n - 2) / sxx)), float(xm)
+
+
+def change_across(t, y, min_points: int = 3, correlated: bool = False) -> tuple[float, float, int]:
+    """Change of ``y`` across the span of ``t`` from the least-squares line, its error and the points used.
+
+    .. math:: \\Delta = a\\,(t_{last} - t_{first}), \\qquad a = \\text{the slope of } y = a t + b
+
+    Parameters
+    ----------
+    t, y : array_like
+        Samples in time order (non-finite pairs are dropped).
+    min_points : int, optional
+        Fewest finite points that give a change.
+    correlated : bool, optional
+        Samples of one run whose surges span several (frames): the error is widened by
+        :math:`\\sqrt g`, g the statistical inefficiency of the residuals (at least 1). Blocks that
+        are independent leave it False.
+
+    Returns
+    -------
+    change, error, n : float, float, int
+        The slope times the span and the slope's error (:func:`linear_fit`) times the span, NaN with
+        fewer than ``min_points`` points; the points used.
+    """
+    t, y = _finite_pairs(t, y)
+    if len(t) < min_points:
+        return float("nan"), float("nan"), len(t)
+    slope, intercept, se, _ = linear_fit(t, y)
+    g = max(1.0, statistical_inefficiency(y - (slope * t + intercept))) if correlated else 1.0
+    span = float(t[-1] - t[0])
+    return slope * span, se * math.sqrt(g) * span, len(t)
 
 
 def cumulative_rate(t, m) -> tuple[float, float]:

@@ -351,3 +351,19 @@ def test_silo_steady_window_writes_its_start_up_rule():
     assert t0n == pytest.approx(0.5) and "set by the caller" in why
     sw = silo.discharge.discharge_steady_window(t, w, window=0.1)
     assert (sw.t_start, sw.t_end) == (t0, t1) and sw.rule in silo.steady_window(t, w, window=0.1)[2]
+
+
+def test_change_across_a_window_is_the_lines_rise_and_correlated_samples_widen_its_error():
+    from postproc.series import change_across
+
+    rng = np.random.default_rng(3)
+    t = np.linspace(1.0, 3.0, 200)
+    white = 0.5 * t + rng.normal(0, 0.1, t.size)
+    change, err, n = change_across(t, white)
+    assert n == 200 and change == pytest.approx(1.0, abs=4 * err) and 0 < err < 0.05
+    # the same scatter in runs of 20 equal samples (surges spanning frames): g ~ 20 widens the error
+    surges = 0.5 * t + np.repeat(rng.normal(0, 0.1, 10), 20)
+    _, plain, _ = change_across(t, surges)
+    _, widened, _ = change_across(t, surges, correlated=True)
+    assert widened > 3 * plain
+    assert np.isnan(change_across(t[:2], white[:2])[0]) and change_across([1, 2, np.nan], [1, 2, 3])[2] == 2

@@ -12,12 +12,9 @@ paper's ± 0.07° is its angle's variation over a 10 s window; it is the paper's
 """
 from __future__ import annotations
 
-import math
-
 import pandas as pd
 
-from postproc.autocorr import statistical_inefficiency
-from postproc.series import linear_fit
+from postproc import series
 
 import granflow.scenes.heap.analysis as hp
 from granflow.validation import Check, systematic
@@ -30,14 +27,8 @@ PAPER_VARIATION = 0.07
 def change_across(alpha_t: pd.DataFrame) -> tuple[float, float, int]:
     """``(Δα, its error, frames)`` of one surface fit's per-frame angles (``t``, ``alpha_deg``); NaN with fewer
     than 4 frames."""
-    d = alpha_t[["t", "alpha_deg"]].astype(float).dropna()
-    if len(d) < 4:
-        return float("nan"), float("nan"), len(d)
-    t, a = d["t"].to_numpy(), d["alpha_deg"].to_numpy()
-    slope, intercept, se, _ = linear_fit(t, a)
-    g = max(1.0, statistical_inefficiency(a - (slope * t + intercept)))
-    span = float(t[-1] - t[0])
-    return slope * span, se * math.sqrt(g) * span, len(a)
+    d = alpha_t[["t", "alpha_deg"]].astype(float)
+    return series.change_across(d["t"].to_numpy(), d["alpha_deg"].to_numpy(), min_points=4, correlated=True)
 
 
 def alpha_change_check(case: str, nominal: pd.DataFrame | None, variants: dict[str, pd.DataFrame],

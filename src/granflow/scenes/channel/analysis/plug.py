@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from postproc import series
 from postproc.structure import bond_order, layering
 
 #: neighbour distance for the bond order, d_p: between the first shell (1 d_p) and the second (√2 d_p)
@@ -174,19 +175,8 @@ def block_ratios(profiles: list[tuple[float, float, pd.DataFrame]], W: float) ->
 
 
 def drift(blocks: pd.DataFrame, key: str = "ratio") -> tuple[float, float]:
-    """Change of ``key`` over the window from a straight line through the block values, and its error.
-
-    .. math:: \\Delta = b\\,(t_{last} - t_{first}), \\qquad b = \\text{least-squares slope}
-
-    with the slope's error from the scatter of the blocks about the line (NaN with fewer than 3 blocks).
-    """
+    """Change of ``key`` over the window from a straight line through the block values, and its error
+    (:func:`postproc.series.change_across`: the slope's error from the scatter of the blocks about the line,
+    blocks independent; NaN with fewer than 3 blocks)."""
     b = blocks.dropna(subset=[key])
-    if len(b) < 3:
-        return float("nan"), float("nan")
-    t, y = b["t_mid"].to_numpy(float), b[key].to_numpy(float)
-    slope, intercept = np.polyfit(t, y, 1)
-    resid = y - (slope * t + intercept)
-    s2 = float(np.sum(resid**2) / (len(t) - 2))
-    se = float(np.sqrt(s2 / np.sum((t - t.mean()) ** 2)))
-    span = float(t[-1] - t[0])
-    return float(slope * span), se * span
+    return series.change_across(b["t_mid"].to_numpy(float), b[key].to_numpy(float))[:2]

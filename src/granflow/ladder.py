@@ -37,12 +37,12 @@ import pandas as pd
 from granflow import registry
 from granflow.config import ConfigError, load_yaml
 from granflow.ladder_contrasts import RECORD, check_contrasts, contrast_checks, reference_label
+from granflow.ladder_rejudge import CONTRAST, MEASURED, rejudge  # noqa: F401
 from granflow.ladder_record_pool import committed_pool_checks, keep_pooled, kept_pooled, record_pool_checks
 from granflow.ladder_series import SeriesFit, figure, scatter_lines, series_fit, series_lines  # noqa: F401
 from granflow.scene_files import check_scene_sweep, load_scene
 from granflow.schema import PROJECT_ROOT
 from granflow.validation import case_summary, format_with_errors, scene_validation
-from granflow.verdicts import verdict
 
 ROOT = PROJECT_ROOT
 #: where the ladder files are, relative to the project root
@@ -406,10 +406,6 @@ def case_label(case: dict) -> str:
     return ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}" for k, v in case["case"].items())
 
 
-#: how a contrast row's state starts (not "run": its rows are no rung's cost, so no picture or plan reads them)
-CONTRAST = "contrast:"
-#: the states of measured rows: a rung's or pool's (``run``) and a contrast's
-MEASURED = ("run", CONTRAST)
 #: the state of a row kept from the committed ladder.csv (:func:`committed_rows`), with the file's commit
 KEPT = "run (kept from the committed ladder.csv{when}; its runs are not at hand)"
 
@@ -570,31 +566,3 @@ def record(ladder: dict, results: Path, out: Path, keep_committed: bool = False)
     (out / "ladder.md").write_text(text)
     figure(df, ladder, out / "figures" / "ladder.png")
     return text
-
-
-def rejudge(df: pd.DataFrame, ladder: dict) -> pd.DataFrame:
-    """The committed ladder's rows judged by today's rules without the runs (as tools/rejudge_record.py does
-    for a record): each measured row's verdict from its numbers, of its scene's kind (``check_kinds``: a
-    diagnostic gets no verdict; else the row's ``kind``, a check's own), against the paper's range (open
-    on one side where a bound is infinite) and the paper's own error (``paper_error``); a row with ``n_replicates`` and ``run_to_run`` (a rung whose cases pooled
-    several seeds) is judged with them, one without as one run (a replicate rung is its own row)."""
-    kinds = registry.get(ladder["scene"]).check_kinds
-    out = df.copy()
-    for i, r in out.iterrows():
-        if not str(r["state"]).startswith(MEASURED):
-            continue
-        # a range may be open on one side ("> 0": hi = inf); a row of before the paper_error column has none
-        bounds = pd.to_numeric(pd.Series([r["paper_lo"], r["paper_hi"]]), errors="coerce")
-        rng = tuple(bounds) if bounds.notna().all() and np.isfinite(bounds).any() else None
-        pe = pd.to_numeric(r.get("paper_error", np.nan), errors="coerce")
-        paper_error = float(pe) if pd.notna(pe) else 0.0
-        syst = float(r["syst"]) if pd.notna(r["syst"]) else float("nan")
-        stat = float(r["stat"]) if pd.notna(r["stat"]) else float("nan")
-        rtr = float(r["run_to_run"]) if pd.notna(r.get("run_to_run", np.nan)) else float("nan")
-        n = int(r["n_replicates"]) if pd.notna(r.get("n_replicates", np.nan)) else 1
-        kind = r["kind"] if isinstance(r.get("kind"), str) else "comparison"   # the row's own, where it has one
-        out.at[i, "verdict"] = verdict(float(r["ours"]), stat, rng, paper_error, syst=syst, run_to_run=rtr,
-                                       n_replicates=n,
-                                       kind=kinds.get(r["quantity"], kind))[0]
-    return out
-

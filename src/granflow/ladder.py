@@ -37,6 +37,7 @@ import pandas as pd
 from granflow import registry
 from granflow.config import ConfigError, load_yaml
 from granflow.ladder_contrasts import RECORD, check_contrasts, contrast_checks, reference_label
+from granflow.ladder_rates import calibration, cost_columns, measured_rates, planned_state
 from granflow.ladder_rejudge import CONTRAST, MEASURED, rejudge  # noqa: F401
 from granflow.ladder_record_pool import committed_pool_checks, keep_pooled, kept_pooled, record_pool_checks
 from granflow.ladder_series import SeriesFit, figure, scatter_lines, series_fit, series_lines  # noqa: F401
@@ -163,24 +164,36 @@ def rung_campaign(ladder: dict, rung: dict, results: Path, root: Path = ROOT, pr
             "scenes": {ladder["scene"]: {"enabled": True, "sweep": sweep, "scene": scene}}}
 
 
-def plan(ladder: dict, rung: dict, results: Path, root: Path = ROOT, priced_only: bool = False) -> dict:
+def plan(ladder: dict, rung: dict, results: Path, root: Path = ROOT, priced_only: bool = False,
+         rates: dict | None = None, **kwargs) -> dict:
     """The rung's plan (:func:`granflow.resources.plan_campaign` of :func:`rung_campaign`): its cases priced,
-    each with its state in the rung's directory (done, partial: a rerun resumes, todo)."""
+    each with its state in the rung's directory (done, partial: a rerun resumes, todo). A rung without runs of
+    its own is priced at the ladder's measured ``rates`` (:func:`granflow.ladder_rates.measured_rates`) where
+    one fits its pair style, else at the reference rate."""
     from granflow.resources import plan_campaign
 
     cfg = rung_campaign(ladder, rung, results, root, priced_only)
-    return plan_campaign(cfg, cfg["results_dir"])
+    p = plan_campaign(cfg, cfg["results_dir"], **kwargs)
+    cal = calibration(p, ladder["scene"], rates or {})
+    return plan_campaign(cfg, cfg["results_dir"], calibration=cal, **kwargs) if cal else p
+
+
+def committed_rates(ladder: dict, root: Path = ROOT) -> dict:
+    """The measured rates of the committed ``validation/<scene>/ladder.csv`` (none without one)."""
+    path = Path(root) / "validation" / ladder["scene"] / "ladder.csv"
+    return measured_rates(pd.read_csv(path)) if path.exists() else {}
 
 
 def ladder_plan(ladder: dict, results: Path, root: Path = ROOT, **kwargs) -> dict:
     """Every rung of the ladder priced as one campaign: the rungs run (``rungs:``) and the planned ones, each
-    row's ``scene`` ``<scene>/<rung>`` (``granflow plan --config config/ladders/<scene>.yaml``)."""
-    from granflow.resources import plan_campaign, plan_totals
+    row's ``scene`` ``<scene>/<rung>`` (``granflow plan --config config/ladders/<scene>.yaml``); a rung without
+    runs here at the rate the committed ladder's measured rungs ran at (:func:`plan`)."""
+    from granflow.resources import plan_totals
 
-    out = None
+    out, rates = None, committed_rates(ladder, root)
     for rung in ladder["rungs"] + (ladder.get("planned") or []):
-        cfg = rung_campaign(ladder, rung, results, root, priced_only=rung in (ladder.get("planned") or []))
-        p = plan_campaign(cfg, cfg["results_dir"], **kwargs)
+        p = plan(ladder, rung, results, root, priced_only=rung in (ladder.get("planned") or []), rates=rates,
+                 **kwargs)
         label = f"{ladder['scene']}/{rung['name']}" + ("" if rung in ladder["rungs"] else " (planned)")
         rows = [dict(r, scene=label) for r in p["rows"]]
         if out is None:
@@ -506,9 +519,10 @@ def table(ladder: dict, results: Path, keep_committed: bool = False, root: Path 
             cpu = sum(c["cpu_hours"] for c in cases if math.isfinite(c["cpu_hours"]))
             rows += _rows(contrast, f"{CONTRAST} {contrast['rung']} against {reference_label(contrast)}", checks,
                           cases, cpu)
+    rates = measured_rates(pd.DataFrame(rows))
     for rung in ladder.get("planned", []):
-        p = plan(ladder, rung, results, priced_only=True)
-        rows.append({"rung": rung["name"], "knob": rung["knob"], "state": "planned (cost model, not run)",
+        p = plan(ladder, rung, results, priced_only=True, rates=rates)
+        rows.append({"rung": rung["name"], "knob": rung["knob"], "state": planned_state(p, ladder["scene"], rates),
                      "cases": len(p["rows"]), "particles": ", ".join(f"{r['particles']:,}" for r in p["rows"]),
                      "cpu_hours": p["total"]["cpu_hours"]})
     return with_from_paper(pd.DataFrame(rows), ladder)
@@ -529,7 +543,7 @@ def _rows(rung: dict, state: str, checks: list, cases: list[dict], cpu: float) -
                      "paper_hi": max(c.paper_range) if c.paper_range else np.nan,
                      "cases": len(cases), "particles": ", ".join(sorted({f"{c['particles']:,}" for c in cases
                                                                          if c.get("particles")})),
-                     "cpu_hours": cpu, "kind": c.kind})
+                     "cpu_hours": cpu, **cost_columns(cases), "kind": c.kind})
     return rows
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import shutil
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
@@ -204,7 +205,21 @@ def case_summary(case_dir: Path) -> dict:
         "particles": (record.get("n_particles") or (record.get("parameters") or {}).get("n_particles")
                       or record.get("n_particles_estimate")),
         "max_overlap": status.get("max_overlap"),
+        # what the run cost per atom-step (granflow.ladder_rates prices the rungs not run from it)
+        "atom_steps": status.get("atom_steps"), "steps": _steps_run(case_dir),
+        "pair_style": (record.get("contact_law") or {}).get("pair_style"),
     }
+
+
+def _steps_run(case_dir: Path) -> float:
+    """Time steps the case's LAMMPS runs took: the ``Loop time of X on P procs for S steps`` lines of its
+    logs (NaN without any)."""
+    steps = sum(int(m) for log in sorted((case_dir / "run" / "logs").glob("*.log"))
+                for m in _LOOP_STEPS.findall(log.read_text(errors="replace")))
+    return float(steps) if steps else float("nan")
+
+
+_LOOP_STEPS = re.compile(r"^Loop time of \S+ on \d+ procs for (\d+) steps", re.M)
 
 
 def _clean(value):

@@ -64,15 +64,16 @@ class LadderRate:
 
     def short(self, n_mean: float) -> str:
         """The rate in a few words, for a planned rung's state in ``ladder.csv``."""
-        return (f"{self.at(n_mean) / 1e6:.3g} Matom-step per CPU-s at {n_mean:,.0f} particles, as rungs "
-                f"{', '.join(self.rungs)} ran (±{100 * self.scatter:.0f} %)")
+        ran = (f"as rung {self.rungs[0]} ran" if len(self.rungs) == 1 else
+               f"as rungs {', '.join(self.rungs)} ran (±{100 * self.scatter:.0f} %)")
+        return f"{self.at(n_mean) / 1e6:.3g} Matom-step per CPU-s at {n_mean:,.0f} particles, {ran}"
 
     def source(self, n_mean: float) -> str:
         form = (f"log-linear in the mean particle count (exponent {self.b:+.2f}) across their "
                 f"{self.n_lo:,.0f}-{self.n_hi:,.0f}" if self.b else "pooled")
         return (f"{_SOURCE} {', '.join(self.rungs)} ({self.pair_style}; {form}): "
                 f"{self.at(n_mean) / 1e6:.3g} Matom-step per CPU-s at {n_mean:,.0f} particles "
-                f"(rungs scatter ±{100 * self.scatter:.0f} % about it)")
+                + (f"(rungs scatter ±{100 * self.scatter:.0f} % about it)" if len(self.rungs) > 1 else "(one rung)"))
 
 
 def measured_rates(df: pd.DataFrame) -> dict[str, LadderRate]:

@@ -37,7 +37,7 @@ import pandas as pd
 from granflow import registry
 from granflow.config import ConfigError, load_yaml
 from granflow.ladder_contrasts import RECORD, check_contrasts, contrast_checks, reference_label
-from granflow.ladder_rates import calibration, cost_columns, measured_rates, planned_state
+from granflow.ladder_rates import calibration, cost_columns, measured_rates, planned_state, price_lines
 from granflow.ladder_rejudge import CONTRAST, MEASURED, rejudge  # noqa: F401
 from granflow.ladder_record_pool import committed_pool_checks, keep_pooled, kept_pooled, record_pool_checks
 from granflow.ladder_series import SeriesFit, figure, scatter_lines, series_fit, series_lines  # noqa: F401
@@ -563,7 +563,7 @@ def markdown(df: pd.DataFrame, ladder: dict) -> str:
         where = "" if state == "run" else f" ({state})" if state.startswith(CONTRAST) else f" ({state[5:-1]})"
         text += (f"| {r['rung']} | {r['knob']}{where} | {r['quantity']} | {ours} | {r['paper']} | "
                  f"{r['verdict']} | {r['cpu_hours']:.2f} |\n")
-    return text + "\n" + scatter_lines(df, ladder) + series_lines(df, ladder)
+    return text + "\n" + scatter_lines(df, ladder) + series_lines(df, ladder) + price_lines(df)
 
 
 def record(ladder: dict, results: Path, out: Path, keep_committed: bool = False) -> str:

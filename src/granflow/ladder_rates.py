@@ -18,7 +18,7 @@ of its own runs, and a pair style no rung measured keeps the reference rate.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -49,61 +49,105 @@ def cost_columns(cases: list[dict]) -> dict:
 
 @dataclass(frozen=True)
 class LadderRate:
-    """Atom-steps per CPU-second of one pair style, ``exp(log_a) N̄^b``, fitted across ``rungs``."""
+    """Atom-steps per CPU-second of one pair style, ``exp(log_a) N̄^b``, fitted across ``rungs``; ``error`` the
+    relative error of a price at it: with three rungs or more the rms of each rung's price, the rung left out,
+    against what it took (:func:`leave_one_out`); with two their rates' spread; NaN with one."""
 
     pair_style: str
     rungs: tuple[str, ...]
     log_a: float
     b: float
-    scatter: float          # rms of log(rate) about the line (0 with one rung)
+    error: float
     n_lo: float
     n_hi: float
 
     def at(self, n_mean: float) -> float:
         return float(math.exp(self.log_a) * n_mean ** self.b) if self.b else float(math.exp(self.log_a))
 
+    def _error_words(self) -> str:
+        if len(self.rungs) == 1:
+            return "one rung: its error unknown"
+        if len(self.rungs) == 2:
+            return f"the two rungs' rates spread ±{100 * self.error:.0f} %"
+        return f"±{100 * self.error:.0f} %, each rung left out and priced by the others"
+
     def short(self, n_mean: float) -> str:
         """The rate in a few words, for a planned rung's state in ``ladder.csv``."""
-        ran = (f"as rung {self.rungs[0]} ran" if len(self.rungs) == 1 else
-               f"as rungs {', '.join(self.rungs)} ran (±{100 * self.scatter:.0f} %)")
-        return f"{self.at(n_mean) / 1e6:.3g} Matom-step per CPU-s at {n_mean:,.0f} particles, {ran}"
+        ran = f"as rung {self.rungs[0]} ran" if len(self.rungs) == 1 else f"as rungs {', '.join(self.rungs)} ran"
+        return f"{self.at(n_mean) / 1e6:.3g} Matom-step per CPU-s at {n_mean:,.0f} particles, {ran} ({self._error_words()})"
 
     def source(self, n_mean: float) -> str:
         form = (f"log-linear in the mean particle count (exponent {self.b:+.2f}) across their "
                 f"{self.n_lo:,.0f}-{self.n_hi:,.0f}" if self.b else "pooled")
         return (f"{_SOURCE} {', '.join(self.rungs)} ({self.pair_style}; {form}): "
-                f"{self.at(n_mean) / 1e6:.3g} Matom-step per CPU-s at {n_mean:,.0f} particles "
-                + (f"(rungs scatter ±{100 * self.scatter:.0f} % about it)" if len(self.rungs) > 1 else "(one rung)"))
+                f"{self.at(n_mean) / 1e6:.3g} Matom-step per CPU-s at {n_mean:,.0f} particles ({self._error_words()})")
+
+
+def _measured_rows(df: pd.DataFrame) -> pd.DataFrame:
+    """One row per measured rung that kept its atom-steps, steps, pair style and CPU-hours (numbers as floats)."""
+    need = {"atom_steps", "steps", "pair_style", "cpu_hours", "state", "rung"}
+    if df.empty or not need <= set(df.columns):
+        return pd.DataFrame(columns=sorted(need))
+    state = df["state"].astype(str)
+    rows = df[state.str.startswith(_OWN_RUNS) & ~state.str.startswith(_NOT_OWN)].drop_duplicates("rung")
+    rows = rows.assign(**{k: pd.to_numeric(rows[k], errors="coerce") for k in ("atom_steps", "steps", "cpu_hours")})
+    ok = (rows["atom_steps"] > 0) & (rows["steps"] > 0) & (rows["cpu_hours"] > 0) & rows["pair_style"].notna()
+    return rows[ok & ~rows["pair_style"].astype(str).str.contains(",")]
+
+
+def _fit(style: str, g: pd.DataFrame) -> LadderRate:
+    ast, steps, cpu = (g[k].to_numpy(float) for k in ("atom_steps", "steps", "cpu_hours"))
+    n_mean, rate = ast / steps, ast / (3600 * cpu)
+    if len(g) >= MIN_RUNGS_FOR_SIZE and n_mean.max() >= MIN_SIZE_SPAN * n_mean.min():
+        b, log_a = np.polyfit(np.log(n_mean), np.log(rate), 1)
+    else:
+        b, log_a = 0.0, float(np.log(ast.sum() / (3600 * cpu.sum())))
+    spread = float(np.std(np.log(rate) - log_a, ddof=1)) if len(g) == 2 else float("nan")
+    return LadderRate(style, tuple(g["rung"]), float(log_a), float(b), spread, float(n_mean.min()), float(n_mean.max()))
+
+
+def leave_one_out(style: str, g: pd.DataFrame) -> list[tuple[str, float, float]]:
+    """Each rung of ``g`` (one pair style's measured rows) priced at the rate of the others, at its mean
+    particle count: ``(rung, CPU-hours priced, CPU-hours taken)``."""
+    out = []
+    for i in g.index:
+        r, rate = g.loc[i], _fit(style, g.drop(index=i))
+        out.append((str(r["rung"]), float(r["atom_steps"] / rate.at(r["atom_steps"] / r["steps"]) / 3600),
+                    float(r["cpu_hours"])))
+    return out
 
 
 def measured_rates(df: pd.DataFrame) -> dict[str, LadderRate]:
     """Per pair style, the rate of the ladder's measured rungs (rows of ``ladder.csv`` or of the table being
     written) that kept their atom-steps, steps and CPU-hours; a pool's rows are left out (its CPU-hours are
     its rungs')."""
-    need = {"atom_steps", "steps", "pair_style", "cpu_hours", "state", "rung"}
-    if df.empty or not need <= set(df.columns):
-        return {}
-    state = df["state"].astype(str)
-    rows = df[state.str.startswith(_OWN_RUNS) & ~state.str.startswith(_NOT_OWN)].drop_duplicates("rung")
-    num = {k: pd.to_numeric(rows[k], errors="coerce") for k in ("atom_steps", "steps", "cpu_hours")}
-    ok = (num["atom_steps"] > 0) & (num["steps"] > 0) & (num["cpu_hours"] > 0) & rows["pair_style"].notna()
     out = {}
-    for style, g in rows[ok].groupby("pair_style"):
-        if "," in str(style):
-            continue
-        ast, steps, cpu = (num[k][g.index].to_numpy(float) for k in ("atom_steps", "steps", "cpu_hours"))
-        n_mean, rate = ast / steps, ast / (3600 * cpu)
-        x, y = np.log(n_mean), np.log(rate)
-        if len(g) >= MIN_RUNGS_FOR_SIZE and n_mean.max() >= MIN_SIZE_SPAN * n_mean.min():
-            b, log_a = np.polyfit(x, y, 1)
-            resid = y - (log_a + b * x)
-            scatter = float(np.sqrt(np.sum(resid ** 2) / (len(g) - 2)))
-        else:
-            b, log_a = 0.0, float(np.log(ast.sum() / (3600 * cpu.sum())))
-            scatter = float(np.std(y - log_a, ddof=1)) if len(g) > 1 else 0.0
-        out[str(style)] = LadderRate(str(style), tuple(g["rung"]), float(log_a), float(b), scatter,
-                                     float(n_mean.min()), float(n_mean.max()))
+    for style, g in _measured_rows(df).groupby("pair_style"):
+        rate = _fit(str(style), g)
+        if len(g) >= MIN_RUNGS_FOR_SIZE:
+            errors = [priced / taken - 1 for _, priced, taken in leave_one_out(str(style), g)]
+            rate = replace(rate, error=float(np.sqrt(np.mean(np.square(errors)))))
+        out[str(style)] = rate
     return out
+
+
+def price_lines(df: pd.DataFrame) -> str:
+    """How far the rate prices the rungs it comes from, each left out in turn (:func:`leave_one_out`), per pair
+    style with three measured rungs or more. For ``ladder.md``; empty without such rungs."""
+    rows = _measured_rows(df)
+    lines = []
+    for style, g in rows.groupby("pair_style"):
+        if len(g) < MIN_RUNGS_FOR_SIZE:
+            continue
+        parts = [f"{rung} {priced:.3g} against {taken:.3g} ({100 * (priced / taken - 1):+.0f} %)"
+                 for rung, priced, taken in leave_one_out(str(style), g)]
+        rate = measured_rates(g)[str(style)]
+        lines.append(f"- {style}: {rate.source(float(g['atom_steps'].sum() / g['steps'].sum()))}. Each rung left "
+                     f"out and priced by the others (CPU-h priced against taken): " + "; ".join(parts) + ".")
+    if not lines:
+        return ""
+    return ("Prices (rungs not run and planned ones are priced at the rate the measured rungs ran at, "
+            "`granflow/ladder_rates.py`):\n\n" + "\n".join(lines) + "\n\n")
 
 
 def calibration(plan: dict, scene: str, rates: dict[str, LadderRate]) -> Calibration | None:
@@ -130,4 +174,5 @@ def planned_state(plan: dict, scene: str, rates: dict[str, LadderRate]) -> str:
     return f"planned (cost model at {rates[rows[0]['pair_style']].short(n_mean)}; not run)"
 
 
-__all__ = ["LadderRate", "cost_columns", "measured_rates", "calibration", "planned_state"]
+__all__ = ["LadderRate", "cost_columns", "measured_rates", "calibration", "planned_state", "price_lines",
+           "leave_one_out"]

@@ -7,7 +7,8 @@ import pandas as pd
 import pytest
 
 from granflow import ladder as ladders
-from granflow.ladder_rates import calibration, cost_columns, measured_rates, planned_state
+from granflow.ladder_rates import (_measured_rows, calibration, cost_columns, leave_one_out, measured_rates,
+                                   planned_state, price_lines)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -22,9 +23,19 @@ def rung_row(name, n_mean, rate, steps=1e5, style="granular", state="run"):
 def test_a_rate_that_falls_as_a_power_of_the_particle_count_is_recovered():
     rows = [rung_row(f"r{i}", n, 2e6 * (n / 1e4) ** -0.2) for i, n in enumerate((1e4, 3e4, 9e4))]
     rate = measured_rates(pd.DataFrame(rows))["granular"]
-    assert rate.b == pytest.approx(-0.2, abs=1e-9) and rate.scatter == pytest.approx(0.0, abs=1e-9)
+    assert rate.b == pytest.approx(-0.2, abs=1e-9)
     assert rate.at(2.7e5) == pytest.approx(2e6 * 27 ** -0.2, rel=1e-9)     # read beyond them along the line
     assert rate.rungs == ("r0", "r1", "r2")
+
+
+def test_each_rung_left_out_is_priced_by_the_others():
+    exact = [rung_row(f"r{i}", n, 2e6 * (n / 1e4) ** -0.2) for i, n in enumerate((1e4, 2e4, 4e4, 8e4))]
+    assert measured_rates(pd.DataFrame(exact))["granular"].error == pytest.approx(0.0, abs=1e-9)
+    off = exact[:3] + [rung_row("slow", 8e4, 0.5 * 2e6 * 8 ** -0.2)]            # took twice its line's time
+    priced = dict((rung, p / t) for rung, p, t in leave_one_out("granular", _measured_rows(pd.DataFrame(off))))
+    assert priced["slow"] == pytest.approx(0.5) and priced["r0"] != pytest.approx(1.0)
+    assert "slow 1.68 against 3.37 (-50 %)" in price_lines(pd.DataFrame(off))
+    assert price_lines(pd.DataFrame(off[:2])) == ""                              # two rungs: nothing to leave out
 
 
 def test_too_few_rungs_or_too_narrow_a_size_range_give_the_pooled_rate():
@@ -72,7 +83,7 @@ def test_a_rung_is_priced_at_the_ladder_rate_only_without_runs_of_its_own():
     assert calibration(plan_of("reference", style="gran/hooke/history"), "heap", rates) is None
     assert planned_state(plan_of("reference"), "heap", rates) == "planned (cost model, not run)"
     assert planned_state(plan_of(cal.rates["heap"].source), "heap", rates).startswith(
-        "planned (cost model at 1.45 Matom-step per CPU-s at 50,000 particles, as rungs r0, r1, r2")
+        "planned (cost model at 1.45 Matom-step per CPU-s at 50,000 particles, as rungs r0, r1, r2 ran (±")
 
 
 def test_a_planned_rung_is_priced_at_the_rate_its_ladders_measured_rungs_ran_at(tmp_path):

@@ -10,8 +10,13 @@ fits log(rate) = a + b log(N̄) across the measured rungs, N̄ the mean particle
 steps). The cost of an atom-step grows with N: the heap's ran at 0.17-0.25 µs per atom-step with ~1k
 particles mostly in flight, 0.64-0.72 µs at 20-35k in a bed and 0.80-0.83 µs at 87-112k (one rank, its
 segments' logs). With fewer than :data:`MIN_RUNGS_FOR_SIZE` rungs, or their N̄ within a factor
-:data:`MIN_SIZE_SPAN`, the rate is their pooled one (Σ atom-steps / Σ CPU-seconds, b = 0). The rungs' scatter
-about the line (rms of log rate) is quoted with the price. :func:`calibration` turns the rate at a rung's N̄
+:data:`MIN_SIZE_SPAN`, the rate is their pooled one (Σ atom-steps / Σ CPU-seconds, b = 0). The price's error
+is quoted with it: each measured rung left out and priced by the others, the rms of priced over taken − 1
+(:func:`leave_one_out`, listed in ``ladder.md`` by :func:`price_lines`). CPU-seconds are what the runs took,
+on a machine doing other work too: an MPI rank spins while its partner waits for a core, so a two-rank run
+beside other jobs takes more CPU-seconds per atom-step than alone (the heap's W = 0.23 m, 10 g/s rung, two
+ranks: 375 CPU-s for a segment at ~21k particles alone, 518 and 573 for the next two at ~23k and ~25k beside
+test runs, 2026-11-28). :func:`calibration` turns the rate at a rung's N̄
 into the :class:`granflow.resources.Calibration` its plan is priced with; a rung that ran here keeps the rate
 of its own runs, and a pair style no rung measured keeps the reference rate.
 """

@@ -431,6 +431,18 @@ def test_heap_monodisperse_gives_nan_mixture_checks_without_exception(tmp_path):
     assert "deposit" not in result.profiles
 
 
+def test_heap_deposit_that_holds_nothing_says_the_window_laid_down_less_than_the_layer(tmp_path):
+    scene_dir, cases = heap_scene(tmp_path, [("bi1-2", 0.033, (D_SMALL, D_LARGE))])
+    (case,) = cases.values()
+    dep = pd.read_csv(case / "analysis" / "deposit.csv")
+    dep.assign(c_s=np.nan, n=0).to_csv(case / "analysis" / "deposit.csv", index=False)
+    scalars = json.loads((case / "analysis" / "scalars.json").read_text())
+    write_json(case / "analysis" / "scalars.json", dict(scalars, v_r_normal=0.002))   # 2 mm/s over 1.5 s
+    (c,) = by_quantity(HEAP.validation(scene_dir, cases), "c_s upstream")
+    assert math.isnan(c.ours) and c.verdict == "not measured"
+    assert f"rose 3 mm (normal to itself) in its 1.5 s, less than δ = {scalars['delta_mean'] * 1e3:.2g} mm" in c.note
+
+
 def test_heap_case_without_analysis_is_not_measured(tmp_path):
     scene_dir, cases = heap_scene(tmp_path, [("bi1-2", 0.033, (D_SMALL, D_LARGE))])
     path = cases["mix~bi1-2/mdot~33"]

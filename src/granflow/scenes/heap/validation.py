@@ -356,7 +356,8 @@ def deposit_check(case: HeapCase) -> Check:
     if not case.measured or case.tables["deposit"].empty:
         return _not_measured(q, paper, source, case, paper_range=(0.0, math.inf))
     if not (case.tables["deposit"]["n"] > 0).any():   # a slow rise lays nothing below the layer in a short window
-        rise, dt = case.get("v_r_normal") * (case.get("t_end") - case.get("t_start")), case.get("t_end") - case.get("t_start")
+        dt = case.get("t_end") - case.get("t_start")
+        rise = case.get("v_r_normal") * dt
         return Check(q, paper, source, float("nan"), case=case.name, paper_range=(0.0, math.inf), note=_with(
             f"nothing laid down below the flowing layer in the window: the surface rose {rise * 1e3:.2g} mm (normal "
             f"to itself) in its {dt:.3g} s, less than δ = {case.get('delta_mean') * 1e3:.2g} mm", case))

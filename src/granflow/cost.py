@@ -271,7 +271,7 @@ def segment_costs(run_dir) -> list[dict]:
     import json
     from pathlib import Path
 
-    from .runner import loop_cost  # deferred: the runner is needed only to read finished runs
+    from .runner import loop_totals  # deferred: the runner is needed only to read finished runs
 
     logs = sorted(Path(run_dir, "logs").glob("*.log"))
     order = {"init": 0, "flow": 1, "average": 2}
@@ -279,8 +279,7 @@ def segment_costs(run_dir) -> list[dict]:
     out = []
     for path in logs:
         text = path.read_text(errors="replace")
-        seconds, atom_steps = loop_cost(text)
-        steps = sum(float(line.split()[8]) for line in text.splitlines() if line.startswith("Loop time of "))
+        seconds, steps, atom_steps = loop_totals(text)
         usage = path.with_suffix(".usage.json")
         u = json.loads(usage.read_text()) if usage.exists() else {}
         out.append({"segment": path.stem, "loop_s": seconds, "steps": steps, "atom_steps": atom_steps,

@@ -180,18 +180,23 @@ def performance(log_text: str) -> list[float]:
     return out
 
 
-def loop_cost(log_text: str) -> tuple[float, float]:
-    """Total LAMMPS loop time (s, wall) and atom-steps of every run in a log.
+#: LAMMPS's line after every run (``run ... every`` too): wall seconds, steps and, where printed, atoms
+_LOOP = re.compile(r"^Loop time of (\S+) on \d+ procs for (\d+) steps(?: with (\d+) atoms)?", re.M)
 
-    From the ``Loop time of X on P procs for S steps with N atoms`` lines, which
-    LAMMPS prints for every run, also the short runs of ``run ... every``.
-    """
-    seconds = atom_steps = 0.0
-    for line in log_text.splitlines():
-        if line.startswith("Loop time of "):
-            w = line.split()
-            seconds += float(w[3])
-            atom_steps += float(w[8]) * float(w[11])
+
+def loop_totals(log_text: str) -> tuple[float, float, float]:
+    """Total LAMMPS loop time (s, wall), time steps and atom-steps of every run in a log, from its
+    ``Loop time of X on P procs for S steps with N atoms`` lines (a line without its atoms adds no atom-steps)."""
+    seconds = steps = atom_steps = 0.0
+    for t, s, n in _LOOP.findall(log_text):
+        seconds, steps = seconds + float(t), steps + float(s)
+        atom_steps += float(s) * float(n) if n else 0.0
+    return seconds, steps, atom_steps
+
+
+def loop_cost(log_text: str) -> tuple[float, float]:
+    """Total LAMMPS loop time (s, wall) and atom-steps of every run in a log (:func:`loop_totals`)."""
+    seconds, _, atom_steps = loop_totals(log_text)
     return seconds, atom_steps
 
 

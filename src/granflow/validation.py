@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 import shutil
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
@@ -212,14 +211,13 @@ def case_summary(case_dir: Path) -> dict:
 
 
 def _steps_run(case_dir: Path) -> float:
-    """Time steps the case's LAMMPS runs took: the ``Loop time of X on P procs for S steps`` lines of its
-    logs (NaN without any)."""
-    steps = sum(int(m) for log in sorted((case_dir / "run" / "logs").glob("*.log"))
-                for m in _LOOP_STEPS.findall(log.read_text(errors="replace")))
+    """Time steps the case's LAMMPS runs took, from the loop lines of its logs
+    (:func:`granflow.runner.loop_totals`; NaN without any)."""
+    from .runner import loop_totals  # deferred: the runner is needed only to read finished runs
+
+    steps = sum(loop_totals(log.read_text(errors="replace"))[1]
+                for log in sorted((case_dir / "run" / "logs").glob("*.log")))
     return float(steps) if steps else float("nan")
-
-
-_LOOP_STEPS = re.compile(r"^Loop time of \S+ on \d+ procs for (\d+) steps", re.M)
 
 
 def _clean(value):

@@ -252,3 +252,16 @@ def test_thermo_of_segments_keeps_rows_after_a_warning(tmp_path):
     th = CaseRunner(tmp_path).thermo("flow")
     assert list(th["Step"]) == [224000, 225000, 226000, 227000, 228000, 229000]
     assert th["Atoms"].iloc[-1] == 1989
+
+
+def test_loop_totals_counts_every_run_and_skips_lines_without_atoms():
+    """Seconds, steps and atom-steps summed over each run's loop line; a line that names no atoms adds steps
+    but no atom-steps; a line inside other text (not at a line's start) is not LAMMPS's."""
+    from granflow.runner import loop_totals
+
+    text = ("Loop time of 0.5 on 1 procs for 50 steps with 100 atoms\n"
+            "Loop time of 0.25 on 2 procs for 30 steps\n"
+            "log: Loop time of 9 on 1 procs for 999 steps with 9 atoms\n"
+            "Loop time of 0.25 on 1 procs for 50 steps with 120 atoms\n")
+    assert loop_totals(text) == (1.0, 130.0, 50 * 100 + 50 * 120)
+    assert loop_totals("no runs\n") == (0.0, 0.0, 0.0)

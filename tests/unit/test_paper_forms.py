@@ -89,3 +89,24 @@ def test_feed_rates_meet_at_the_same_x_over_L_whatever_digits_each_side_keeps():
     assert [c.quantity for c in run] == [c.quantity for c in kept] and len(run) == 3
     for a, b in zip(kept, run):
         assert math.isfinite(a.ours) and b.ours == pytest.approx(a.ours, rel=1e-9) and b.note == a.note
+
+
+def test_feed_rates_whose_bins_lie_apart_are_read_at_the_wider_bins():
+    # a wider feed zone gives the higher rate a shorter flowing length: its bins lie at other x/L. δ linear in x/L
+    # and 1.3× at the higher rate: read at the wider bins (the other's linear between neighbours) every shared
+    # bin gives 1.3, and so does the other grid (the syst variant)
+    from granflow.scenes.heap.profile_checks import feed_rate_checks
+
+    def case(rate, xs, scale):
+        return pd.DataFrame({"case": f"mix~bi1-2/mdot~{rate:g}", "x_over_L": xs, "x": 0.2 * xs, "q": 1e-3 * (1 - xs),
+                             "u_s": 0.2 * (1 - xs), "delta": scale * 4e-3 * (1.5 - xs), "usable": True})
+
+    fine, wide = np.arange(0.01, 1.0, 0.0189), np.arange(0.012, 1.0, 0.0244)
+    sw = pd.concat([case(10, fine, 1.0), case(120, wide, 1.3)], ignore_index=True)
+    col = pd.DataFrame(columns=["case", "x", "zt", "ut", "wt"])
+    delta, _, us = feed_rate_checks(sw, col)
+    assert delta.ours == pytest.approx(1.3, rel=1e-9) and delta.error == pytest.approx(0.0, abs=1e-9)
+    assert "different x/L" in delta.note and "read at 10 g/s's x/L bins: 1.3" in delta.variants
+    n_wide = int(np.sum((wide >= 0.2 - 1e-9) & (wide <= 0.9 + 1e-9)))
+    assert f"mean over the {n_wide} x/L bins" in delta.note
+    assert us.ours == pytest.approx(1.3, rel=1e-9)   # u_s and q alike at both rates: only δ differs

@@ -44,7 +44,7 @@ import pandas as pd
 from granflow.validation import Check, systematic
 
 from .analysis import normal_velocity_exponential, normal_velocity_linear
-from .qstar import across_feed_rates, feed_rate_of
+from .qstar import across_feed_rates, feed_rate_of, on_grid
 
 #: the x/L range of every fit along the heap: away from the feed (bouncing, §3.3) and the end-wall pool
 X_RANGE = (0.2, 0.9)
@@ -413,6 +413,20 @@ def surface_checks(case: str, surf: pd.DataFrame, d_s: float) -> list[Check]:
 
 
 # --------------------------------------------------------------------------- across feed rates
+def _bin_width(d: pd.DataFrame) -> float:
+    x = np.sort(d["x_over_L"].to_numpy(float))
+    return float(np.median(np.diff(x))) if len(x) > 1 else 0.0
+
+
+def _same_bins(a: pd.DataFrame, b: pd.DataFrame) -> bool:
+    """Whether two cases' bins lie on one lattice of x/L (the same width, offset by whole bins)."""
+    wa, wb = _bin_width(a), _bin_width(b)
+    if not (wa > 0 and abs(wa - wb) <= 1e-4 * wa):
+        return False
+    off = (float(a["x_over_L"].min()) - float(b["x_over_L"].min())) / wa
+    return abs(off - round(off)) < 1e-3
+
+
 def feed_rate_checks(sw: pd.DataFrame, col: pd.DataFrame) -> list[Check]:
     """The lowest and the highest feed rate of one mixture at the same x/L bins (Figs. 9, 10a,c)."""
     rows = (("δ at the higher feed rate over the lower, same x/L", "> 1: δ grows with the feed rate",
@@ -430,36 +444,58 @@ def feed_rate_checks(sw: pd.DataFrame, col: pd.DataFrame) -> list[Check]:
     # bins at the same x/L: as the record keeps them (6 digits) and as a run gives them (every digit) they meet at 5
     a, b = (sw[sw["case"] == c].assign(x_over_L=lambda d: d["x_over_L"].round(5)) for c in (lo, hi))
     q0 = {c: line_at(d, "q", 0.0) for c, d in ((lo, a), (hi, b))}
+    shape = {c: shape_integrals(col[col["case"] == c], d) for c, d in ((lo, a), (hi, b))}
+    cols = [c for c in ("q", "u_s", "delta", "delta_exp", "delta_lin") if c in sw]
+    # each read at the x/L of the case with the wider bins (its own bins where they meet, else linear between
+    # neighbouring bins, qstar.on_grid); the other case's bins a syst
+    frame = {lo: a, hi: b}
+    coarse, fine = sorted((lo, hi), key=lambda c: -_bin_width(frame[c]))
+    aligned = _same_bins(frame[coarse], frame[fine])
 
-    both = a.merge(b, on="x_over_L", suffixes=("_lo", "_hi"))
+    def paired(grid_of: str, frames: dict, columns) -> pd.DataFrame:
+        grid = frame[grid_of]["x_over_L"].to_numpy(float)
+        at = {c: on_grid(frames[c], grid, tuple(columns)).drop(columns="bin") for c in (lo, hi)}
+        return at[lo].merge(at[hi], on="x_over_L", suffixes=("_lo", "_hi"))
+
+    both, shapes = paired(coarse, frame, cols), paired(coarse, shape, ["I"])
+    other = {} if aligned else {"both": paired(fine, frame, cols), "shapes": paired(fine, shape, ["I"])}
+    grid_note = ("" if aligned else f"; the two cases' bins lie at different x/L: both read at the x/L of "
+                 f"{feed_rate_of(coarse):g} g/s's (the wider) bins, the other's linear between its neighbouring "
+                 f"bins, and at {feed_rate_of(fine):g} g/s's bins for the syst")
+    other_grid = f"read at {feed_rate_of(fine):g} g/s's x/L bins"
     ratio = lambda c: (lambda d: mean_se(d[f"{c}_hi"] / d[f"{c}_lo"]))  # noqa: E731
     rates = f"{feed_rate_of(lo):g} and {feed_rate_of(hi):g} g/s ({feed_rate_of(hi) / feed_rate_of(lo):.2g}x apart)"
     out = []
     extra = {f"δ by {c}": ratio(c)(within(both, X_RANGE))[0] for c in ("delta_exp", "delta_lin") if f"{c}_lo" in both}
+    if other:
+        extra[other_grid] = ratio("delta")(within(other["both"], X_RANGE))[0]
     v, se, sy, tx, n = _ranged(ratio("delta"), both, extra=extra)
     out.append(Check(*rows[0][:3], v, se, paper_range=rows[0][3], syst=sy, variants=tx,
                      note=f"mean over the {n} x/L bins at {X_RANGE[0]:g}-{X_RANGE[1]:g} usable in both cases of δ's "
                           f"ratio, {rates}; error: the bins' scatter, {BINS_INDEPENDENT}; syst: the x/L range and "
-                          f"the paper's other two δ methods"))
-    shapes = shape_integrals(col[col["case"] == lo], a).merge(shape_integrals(col[col["case"] == hi], b),
-                                                              on="x_over_L", suffixes=("_lo", "_hi"))
-    v, se, sy, tx, n = _ranged(ratio("I"), shapes)
+                          f"the paper's other two δ methods{grid_note}"))
+    v, se, sy, tx, n = _ranged(ratio("I"), shapes,
+                               extra={other_grid: ratio("I")(within(other["shapes"], X_RANGE))[0]} if other else None)
     out.append(Check(*rows[1][:3], v, se, paper_range=rows[1][3], syst=sy, variants=tx,
                      note=f"mean over the {n} shared x/L bins of the ratio of I = ⟨u/u_s⟩ at {SHAPE_ZT[0]:g} ≤ z/δ ≤ "
                           f"{SHAPE_ZT[1]:g} (the row along x), {rates}: one mixture, so only the feed rate of the "
                           f"paper's 10-120 g/s and size ratios 1-3 is tested; error: the bins' scatter, "
-                          f"{BINS_INDEPENDENT}; syst: the x/L range"))
-    us = both.assign(us_lo=both["u_s_lo"] * both["delta_lo"] / q0[lo], us_hi=both["u_s_hi"] * both["delta_hi"] / q0[hi])
+                          f"{BINS_INDEPENDENT}; syst: the x/L range{grid_note}"))
+
+    def us_of(d: pd.DataFrame, q: dict) -> pd.DataFrame:
+        return d.assign(us_lo=d["u_s_lo"] * d["delta_lo"] / q[lo], us_hi=d["u_s_hi"] * d["delta_hi"] / q[hi])
+
+    us = us_of(both, q0)
     first = {c: float(d["q"].iloc[0]) for c, d in ((lo, a), (hi, b))}
-    alt = {"q_0 = q of the first bin": ratio("us")(within(both.assign(
-        us_lo=both["u_s_lo"] * both["delta_lo"] / first[lo], us_hi=both["u_s_hi"] * both["delta_hi"] / first[hi]),
-        X_RANGE))[0]}
+    alt = {"q_0 = q of the first bin": ratio("us")(within(us_of(both, first), X_RANGE))[0]}
+    if other:
+        alt[other_grid] = ratio("us")(within(us_of(other["both"], q0), X_RANGE))[0]
     v, se, sy, tx, n = _ranged(ratio("us"), us, extra=alt)
     out.append(Check(*rows[2][:3], v, se, paper_range=rows[2][3], syst=sy, variants=tx,
                      note=f"mean over the {n} shared x/L bins of the ratio of u_s δ/(2 q_0), q_0 each case's q line "
                           f"(x/L {X_RANGE[0]:g}-{X_RANGE[1]:g}) at x = 0 ({q0[lo] * 1e4:.3g} and {q0[hi] * 1e4:.3g} "
                           f"cm²/s), {rates}; error: the bins' scatter, {BINS_INDEPENDENT}; syst: the x/L range, q_0 "
-                          f"from the first bin"))
+                          f"from the first bin{grid_note}"))
     return out
 
 

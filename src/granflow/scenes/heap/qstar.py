@@ -43,10 +43,11 @@ def feed_rate_of(case: str) -> float:
     return float(m.group(1)) if m else float("nan")
 
 
-def on_grid(case: pd.DataFrame, grid: np.ndarray) -> pd.DataFrame:
-    """One case's ``ld`` = ln(δ/d̄) and ``lq`` = ln q* at the x/L points of ``grid`` (column ``bin``): its own bin
-    where one lies there, else linear between two of its usable bins that are neighbours (at most one bin width
-    apart); a grid point outside its bins, or across a gap of unusable bins, is left out."""
+def on_grid(case: pd.DataFrame, grid: np.ndarray, columns: tuple[str, ...] = ("ld", "lq")) -> pd.DataFrame:
+    """One case's ``columns`` (by default ``ld`` = ln(δ/d̄) and ``lq`` = ln q*) at the x/L points of ``grid``
+    (``x_over_L`` the point, ``bin`` it to 3 decimals): its own bin where one lies there, else linear between two
+    of its usable bins that are neighbours (at most one bin width apart); a grid point outside its bins, or across
+    a gap of unusable bins, is left out."""
     c = case.sort_values("x_over_L")
     x = c["x_over_L"].to_numpy(float)
     step = float(np.median(np.diff(x))) if len(x) > 1 else 0.0
@@ -61,9 +62,9 @@ def on_grid(case: pd.DataFrame, grid: np.ndarray) -> pd.DataFrame:
             continue
         lo, hi = c.iloc[max(j - 1, 0)], c.iloc[j]
         lo = hi if w == 0.0 else lo
-        rows.append({"bin": round(float(p), 3), "ld": (1 - w) * lo["ld"] + w * hi["ld"],
-                     "lq": (1 - w) * lo["lq"] + w * hi["lq"]})
-    return pd.DataFrame(rows, columns=["bin", "ld", "lq"])
+        rows.append({"bin": round(float(p), 3), "x_over_L": float(p),
+                     **{k: (1 - w) * float(lo[k]) + w * float(hi[k]) for k in columns}})
+    return pd.DataFrame(rows, columns=["bin", "x_over_L", *columns])
 
 
 def _fit(df: pd.DataFrame, grid_of: str, lo: float = MIN_X_OVER_L, hi: float = math.inf) -> dict | None:

@@ -79,7 +79,8 @@ def test_a_pool_reads_every_case_of_its_rungs_as_one_record(tmp_path, ladder, se
 def test_rejudge_keeps_a_rows_own_kind(tmp_path, ladder, seen):
     # two of the three rates: the validation calls its q* row a diagnostic; the ladder.csv row says so and its
     # verdict, judged again from the file, stays none
-    ladder["pools"][0]["rungs"] = ["W023", "mdot120_W023"]
+    # the pool alone: another pool of W023 with a rung's kept profiles would read these synthetic cases' params
+    ladder["pools"] = [dict(pool_of(ladder), rungs=["W023", "mdot120_W023"])]
     analysed(tmp_path, ladder, "W023", "mix~bi1-2/mdot~33")
     analysed(tmp_path, ladder, "mdot120_W023", "mix~bi1-2/mdot~120")
     df = lad.table(ladder, tmp_path)

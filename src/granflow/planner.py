@@ -185,8 +185,12 @@ def answer(target: str, cores: int, root: Path = PROJECT_ROOT) -> dict:
     heads = {scene: rung_headlines(lad) for scene, lad in loaded.items()}
     scene, quantity, p = parse_target(target, tables, heads)
     df, ladder = tables[scene], loaded[scene]
-    rows = df[(df["quantity"] == quantity) & df["state"].astype(str).str.startswith("run")
-              & np.isfinite(df["ours"].astype(float))]
+    ran = df[(df["quantity"] == quantity) & df["state"].astype(str).str.startswith("run")
+             & np.isfinite(df["ours"].astype(float))]
+    # a diagnostic row (its validation gives no verdict against the paper, e.g. a q* exponent over two feed rates)
+    # is no answer to "within P of the paper"
+    diagnostic = ran["kind"].astype(str).eq("diagnostic") if "kind" in ran else pd.Series(False, index=ran.index)
+    rows, only_diagnostic = ran[~diagnostic], sorted(set(ran.loc[diagnostic, "rung"]))
     r2r = run_to_run(df, ladder, quantity)
     samples = ("run-to-run from a replicate rung included" if math.isfinite(r2r)
                else "one sample each: no replicate rung, run-to-run not included")
@@ -219,6 +223,9 @@ def answer(target: str, cores: int, root: Path = PROJECT_ROOT) -> dict:
                        f"(a power law through the series' measured CPU-hours), {wall:.3g} wall-h on {cores} cores")
         return out
     out.update(answer="cannot answer", reasons=reasons(df, ladder, quantity, p, measured, why))
+    if only_diagnostic:
+        out["reasons"].append(f"{', '.join(only_diagnostic)} measure{'s' if len(only_diagnostic) == 1 else ''} it "
+                              "only as a diagnostic (no verdict against the paper)")
     out["line"] = f"{head}: cannot answer: " + "; ".join(out["reasons"])
     return out
 

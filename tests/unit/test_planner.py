@@ -152,3 +152,18 @@ def test_json_holds_one_answer_per_target(capsys):
     assert len(capsys.readouterr().out.strip().splitlines()) == 1
     assert cli.main(["plan", "--target", "channel:u_max:1%", "--cores", "0"]) == 2
     assert "--cores = 0: allowed" in capsys.readouterr().err
+
+
+def test_a_diagnostic_row_is_no_answer_within_p():
+    """The heap's q* exponent over two feed rates (W023_steady_rates, 0.223) is a diagnostic: no verdict against
+    the paper, so never the measured answer, however near 0.22; the comparisons over three rates are."""
+    df = pd.read_csv("validation/heap/ladder.csv")
+    q = "δ/d̄ ∝ q*^a across feed rates at fixed x/L ≥ 0.2: exponent a"
+    kinds = df[df["quantity"] == q].set_index("rung")["kind"]
+    assert kinds["W023_steady_rates"] == "diagnostic" and kinds["W023_rates"] == "comparison"
+    for p in ("2%", "10%", "30%"):
+        a = answer(f"heap:q*^a:{p}", 4)
+        assert a.get("rung") != "W023_steady_rates"
+        if a["answer"] == "cannot answer":
+            assert any("W023_steady_rates measures it only as a diagnostic" in r for r in a["reasons"])
+    assert answer("heap:q*^a:30%", 4)["answer"] == "measured"

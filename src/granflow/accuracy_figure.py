@@ -39,7 +39,8 @@ def absolute(df: pd.DataFrame, quantity: str) -> bool:
 def measured_points(df: pd.DataFrame, ladder: dict, quantity: str) -> pd.DataFrame:
     """The measured rungs of ``quantity``: ``rung, cpu_hours, difference, error`` (fractions of the paper's value,
     the record's ``abs_rel_difference``; absolute where the paper has an edge at 0, :func:`absolute`),
-    ``replicate``. The error is stat ⊕ syst ⊕ run-to-run, on the difference's scale."""
+    ``replicate``, ``diagnostic`` (a row its validation gives no verdict against the paper, drawn open). The error
+    is stat ⊕ syst ⊕ run-to-run, on the difference's scale."""
     rows = df[(df["quantity"] == quantity) & df["state"].astype(str).str.startswith("run")
               & np.isfinite(df["ours"].astype(float))]
     r2r = run_to_run(df, ladder, quantity)
@@ -50,8 +51,9 @@ def measured_points(df: pd.DataFrame, ladder: dict, quantity: str) -> pd.DataFra
         err = math.hypot(*(v for v in (r["stat"], r["syst"], r2r) if math.isfinite(v)))
         edge = min(max(r["ours"], r["paper_lo"]), r["paper_hi"])       # the paper's value nearest ours
         out.append({"rung": r["rung"], "cpu_hours": r["cpu_hours"], "difference": r["abs_rel_difference"],
-                    "error": err if absolute_ else err / abs(edge), "replicate": r["rung"] in reseeds})
-    return pd.DataFrame(out, columns=["rung", "cpu_hours", "difference", "error", "replicate"])
+                    "error": err if absolute_ else err / abs(edge), "replicate": r["rung"] in reseeds,
+                    "diagnostic": str(r.get("kind", "")) == "diagnostic"})
+    return pd.DataFrame(out, columns=["rung", "cpu_hours", "difference", "error", "replicate", "diagnostic"])
 
 
 def series_curves(df: pd.DataFrame, ladder: dict, quantity: str) -> list[dict]:
@@ -126,7 +128,8 @@ def plot_accuracy_cost(df: pd.DataFrame, ladder: dict, out: Path, cost_errors: P
         points = measured_points(df, ladder, q)
         for i, (_, r) in enumerate(points.iterrows()):
             ax.errorbar([r["cpu_hours"]], [scale * r["difference"]], yerr=[scale * r["error"]], marker="os^Dv<>p"[i % 8],
-                        capsize=3, ls="none", label=r["rung"] + (" (reseed)" if r["replicate"] else ""))
+                        capsize=3, ls="none", mfc="none" if r["diagnostic"] else None,
+                        label=r["rung"] + (" (reseed)" if r["replicate"] else "") + (" (diagnostic)" if r["diagnostic"] else ""))
             drawn["measured"] += 1
         for _, r in planned.iterrows():
             ax.axvline(r["cpu_hours"], color="0.5", ls=":", lw=1)
@@ -140,7 +143,7 @@ def plot_accuracy_cost(df: pd.DataFrame, ladder: dict, out: Path, cost_errors: P
         ax.set_ylim(bottom=0)
         ax.legend(fontsize=6)
     fig.suptitle(textwrap.fill(f"{ladder['scene']}: what accuracy costs (measured rungs: filled, bars stat ⊕ syst ⊕ "
-                               "run-to-run; extrapolated: line, band and open diamonds)", 60 * max(1, len(heads))),
+                               "run-to-run; open: a diagnostic, no verdict; extrapolated: line, band and open diamonds)", 60 * max(1, len(heads))),
                  fontsize=8)
     fig.tight_layout()
     Path(out).parent.mkdir(parents=True, exist_ok=True)

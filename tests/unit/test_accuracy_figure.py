@@ -39,6 +39,11 @@ def test_measured_points_carry_the_combined_error_with_the_run_to_run_scatter():
     assert_allclose(points.loc["b5", "error"], math.sqrt(0.002**2 + 0.001**2 + r2r**2) / 1.37, rtol=TOL)
     assert_allclose(points.loc["b20", "difference"], 0.005 / 1.37, rtol=TOL)
     assert points.loc["seed2", "replicate"] and not points.loc["b5", "replicate"]
+    assert not points["diagnostic"].any()
+    # a row its validation calls a diagnostic (no verdict against the paper) is drawn, marked as one
+    df.loc[df["rung"] == "b10", "kind"] = "diagnostic"
+    marked = measured_points(df, ladder, "ratio").set_index("rung")["diagnostic"]
+    assert marked["b10"] and not marked.drop("b10").any()
 
 
 def test_the_series_curve_follows_its_line_to_the_papers_size_at_its_measured_price():
